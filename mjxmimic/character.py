@@ -1,0 +1,186 @@
+"""The character: an MJCF model plus everything derived from it by name.
+
+Joint order, qpos/qvel addresses, PD gains, torque limits, pose-error weights, end effectors and
+body sets for fall contacts are read from the MJCF (joint attributes and its <custom> block) here
+and nowhere else, so no index list is typed twice.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+XML_DIR = Path(__file__).resolve().parent.parent / "xml"
+DEFAULT_XML = XML_DIR / "humanoid.xml"
+
+BALL, HINGE = "ball", "hinge"
+
+
+@dataclasses.dataclass(frozen=True)
+class Joint:
+    """One actuated joint (ball or hinge) in clip order."""
+
+    name: str
+    kind: str  # BALL or HINGE
+    body: int
+    qpos_adr: int
+    dof_adr: int
+    kp: float
+    kd: float
+    torque_limit: float
+    weight: float  # pose-error weight, normalised over root + joints
+
+    @property
+    def qpos_width(self) -> int:
+        return 4 if self.kind == BALL else 1
+
+    @property
+    def dof_width(self) -> int:
+        return 3 if self.kind == BALL else 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Character:
+    """A character model and its layout, all derived from the MJCF by name."""
+
+    xml_path: Path
+    model: mujoco.MjModel
+    joints: tuple[Joint, ...]  # actuated joints in clip (DeepMimic id) order
+    root_weight: float
+    body_names: tuple[str, ...]  # bodies 1..nbody-1 (world excluded)
+    end_effectors: tuple[int, ...]  # body ids
+    body_sets: dict[str, tuple[int, ...]]  # named body-id sets (feet, hands, torso, ...)
+
+    @property
+    def nq(self) -> int:
+        return self.model.nq
+
+    @property
+    def nv(self) -> int:
+        return self.model.nv
+
+    @property
+    def action_size(self) -> int:
+        return sum(j.dof_width for j in self.joints)
+
+    @property
+    def clip_width(self) -> int:
+        """Numbers per clip frame: duration, root pos, root quat, then each joint."""
+        return 1 + 3 + 4 + sum(j.qpos_width for j in self.joints)
+
+    @property
+    def mass(self) -> float:
+        return float(self.model.body_subtreemass[1])
+
+    def sha256(self) -> str:
+        return hashlib.sha256(self.xml_path.read_bytes()).hexdigest()
+
+    def fall_bodies(self, spec: str) -> tuple[int, ...]:
+        """Body ids for a fall-contact spec.
+
+        `spec` is a named set ("torso"), or "all", or "all-<set>[-<set>...]" for every body except
+        those sets (e.g. "all-feet", "all-feet-hands").
+        """
+        parts = spec.split("-")
+        if parts[0] == "all":
+            excluded: set[int] = set()
+            for name in parts[1:]:
+                excluded |= set(self._body_set(name, spec))
+            return tuple(b for b in range(1, self.model.nbody) if b not in excluded)
+        if len(parts) == 1:
+            return self._body_set(spec, spec)
+        raise ValueError(f"fall-contact set {spec!r}: expected a set name or 'all-<set>-...'")
+
+    def _body_set(self, name: str, spec: str) -> tuple[int, ...]:
+        if name not in self.body_sets:
+            known = ", ".join(sorted(self.body_sets))
+            raise ValueError(f"fall-contact set {spec!r}: unknown body set {name!r} (known: {known})")
+        return self.body_sets[name]
+
+
+def _custom_text(model: mujoco.MjModel, name: str) -> str:
+    idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
+    if idx < 0:
+        raise ValueError(f"{name!r} missing from the model's <custom> block")
+    adr, size = model.text_adr[idx], model.text_size[idx]
+    return bytes(model.text_data[adr : adr + size]).decode().rstrip("\x00")
+
+
+def _custom_numeric(model: mujoco.MjModel, name: str) -> np.ndarray:
+    idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, name)
+    if idx < 0:
+        raise ValueError(f"{name!r} missing from the model's <custom> block")
+    adr, size = model.numeric_adr[idx], model.numeric_size[idx]
+    return np.asarray(model.numeric_data[adr : adr + size], dtype=np.float64)
+
+
+def _body_ids(model: mujoco.MjModel, names: str) -> tuple[int, ...]:
+    ids = []
+    for name in names.split():
+        idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if idx < 0:
+            raise ValueError(f"body {name!r} named in <custom> does not exist")
+        ids.append(idx)
+    return tuple(ids)
+
+
+def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
+    """Load an MJCF character and derive its layout by name."""
+    xml_path = Path(xml_path)
+    if not xml_path.is_file():
+        raise FileNotFoundError(f"{xml_path}: character file not found")
+    model = mujoco.MjModel.from_xml_path(str(xml_path))
+    if model.njnt == 0 or model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE:
+        raise ValueError(f"{xml_path}: the first joint must be the root's free joint")
+
+    raw = []
+    for name in _custom_text(model, "clip_joint_order").split():
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if jid < 0:
+            raise ValueError(f"{xml_path}: joint {name!r} in clip_joint_order does not exist")
+        jtype = model.jnt_type[jid]
+        if jtype not in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_HINGE):
+            raise ValueError(f"{xml_path}: joint {name!r} must be a ball or hinge joint")
+        kp, limit, weight = _custom_numeric(model, f"joint/{name}")
+        dof = model.jnt_dofadr[jid]
+        raw.append((name, BALL if jtype == mujoco.mjtJoint.mjJNT_BALL else HINGE, jid, kp, limit, weight, dof))
+    root_weight = float(_custom_numeric(model, "joint/root")[2])
+    total = root_weight + sum(r[5] for r in raw)
+    joints = tuple(
+        Joint(
+            name=name,
+            kind=kind,
+            body=int(model.jnt_bodyid[jid]),
+            qpos_adr=int(model.jnt_qposadr[jid]),
+            dof_adr=int(dof),
+            kp=float(kp),
+            kd=float(model.dof_damping[dof]),
+            torque_limit=float(limit),
+            weight=float(weight / total),
+        )
+        for name, kind, jid, kp, limit, weight, dof in raw
+    )
+    n_actuated = sum(1 for j in range(model.njnt) if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE)
+    if n_actuated != len(joints):
+        raise ValueError(f"{xml_path}: clip_joint_order names {len(joints)} of {n_actuated} joints")
+
+    body_sets = {}
+    for i in range(model.ntext):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TEXT, i)
+        if name in ("clip_joint_order", "end_effectors"):
+            continue
+        body_sets[name] = _body_ids(model, _custom_text(model, name))
+    body_names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody))
+    return Character(
+        xml_path=xml_path,
+        model=model,
+        joints=joints,
+        root_weight=root_weight / total,
+        body_names=body_names,
+        end_effectors=_body_ids(model, _custom_text(model, "end_effectors")),
+        body_sets=body_sets,
+    )

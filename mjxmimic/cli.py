@@ -1,0 +1,55 @@
+"""`mjxmimic` command line: one subcommand per module, imported only when it runs.
+
+Each command module defines `add_arguments(parser)` and `run(args) -> int`. Heavy imports (JAX)
+happen inside `run`, so `mjxmimic play` stays JAX-free.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from mjxmimic.errors import UserError
+
+COMMANDS = {
+    "train": ("mjxmimic.commands.train", "train a policy on a clip"),
+    "eval": ("mjxmimic.commands.evaluate", "normalised return (NR) of a run's policy"),
+    "clips": ("mjxmimic.commands.clips", "list, inspect and render motion clips"),
+    "export": ("mjxmimic.commands.export", "write a run's policy to one portable file"),
+    "play": ("mjxmimic.commands.play", "play an exported policy in MuJoCo on the CPU (no JAX)"),
+    "render": ("mjxmimic.commands.render", "render a policy to a video"),
+    "bench": ("mjxmimic.commands.bench", "throughput benchmarks"),
+    "sweep": ("mjxmimic.commands.sweep", "run a grid of training runs and report"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mjxmimic", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name, (module_name, help_text) in COMMANDS.items():
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as err:
+            if err.name != module_name:
+                raise
+            continue
+        module.add_arguments(sub.add_parser(name, help=help_text, description=help_text))
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    module = importlib.import_module(COMMANDS[args.command][0])
+    try:
+        return int(module.run(args) or 0)
+    except UserError as err:
+        print(f"mjxmimic {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"mjxmimic {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
