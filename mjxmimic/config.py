@@ -1,0 +1,238 @@
+"""One typed configuration: frozen dataclasses in sections, named presets, `section.key=value`
+overrides, and a JSON round trip (the resolved config is written into every run folder)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import typing
+from pathlib import Path
+from typing import Any
+
+from mjxmimic.errors import UserError
+
+
+@dataclasses.dataclass(frozen=True)
+class CharacterConfig:
+    xml: str = "humanoid.xml"  # a file in the package's xml/ folder, or a path
+
+
+@dataclasses.dataclass(frozen=True)
+class ClipConfig:
+    name: str = "slow_walk"  # NAME (see `mjxmimic clips list`) or PATH
+    fall_contact: str = "auto"  # auto: by clip name (DEEPMIMIC.md); else a body set like "all-feet"
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig:
+    control_hz: int = 30
+    physics_hz: int = 240  # must be a multiple of control_hz
+    solver_iterations: int = 4
+    ls_iterations: int = 8
+    episode_seconds: float = 20.0  # time limit (a timeout, not a failure)
+    rsi: bool = True  # reset to a random reference time; else to the clip's start
+    early_termination: bool = True
+    max_joint_velocity: float = 100.0  # beyond this (or NaN) the state is discarded and reset
+    action_scale: float = 1.0  # policy output -> PD targets (rad), added to nothing: absolute targets
+
+
+@dataclasses.dataclass(frozen=True)
+class RewardConfig:
+    kind: str = "released"  # "released" (five terms) or "paper" (four terms)
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOConfig:
+    num_envs: int = 4096
+    unroll_length: int = 32
+    num_minibatches: int = 8
+    num_epochs: int = 4
+    learning_rate: float = 3e-4
+    entropy_cost: float = 0.0
+    discounting: float = 0.95
+    gae_lambda: float = 0.95
+    clipping_epsilon: float = 0.2
+    max_grad_norm: float = 1.0
+    reward_scaling: float = 1.0
+    normalize_observations: bool = True
+    policy_hidden: tuple[int, ...] = (1024, 512)
+    value_hidden: tuple[int, ...] = (1024, 512)
+    init_action_std: float = 0.2  # Gaussian std at the start (normalised action units)
+
+
+@dataclasses.dataclass(frozen=True)
+class RunConfig:
+    total_samples: int = 100_000_000
+    max_seconds: float = 0.0  # stop (with a checkpoint) after this wall-clock time; 0 = no limit
+    eval_every: int = 10_000_000  # samples between evaluations
+    checkpoint_every: int = 10_000_000  # samples between checkpoints
+    eval_episodes: int = 64
+    target_nr: float = 0.0  # stop once an evaluation reaches this NR; 0 = never
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    character: CharacterConfig = CharacterConfig()
+    clip: ClipConfig = ClipConfig()
+    env: EnvConfig = EnvConfig()
+    reward: RewardConfig = RewardConfig()
+    ppo: PPOConfig = PPOConfig()
+    run: RunConfig = RunConfig()
+
+
+PRESETS: dict[str, dict[str, Any]] = {
+    # Small enough that 2 CPU cores show clear learning in about three minutes.
+    "cpu": {
+        "env.physics_hz": 120,
+        "env.solver_iterations": 1,
+        "env.ls_iterations": 4,
+        "ppo.num_envs": 32,
+        "ppo.unroll_length": 16,
+        "ppo.num_minibatches": 4,
+        "ppo.num_epochs": 4,
+        "ppo.learning_rate": 1e-3,
+        "ppo.policy_hidden": (64, 64),
+        "ppo.value_hidden": (64, 64),
+        "run.total_samples": 30_000,
+        "run.eval_every": 10_000,
+        "run.checkpoint_every": 10_000,
+        "run.eval_episodes": 16,
+    },
+    # The real thing, on one GPU.
+    "gpu": {},
+}
+
+
+def _coerce(value: str, typ: Any, key: str) -> Any:
+    """Parse a command-line string into the type of a config field."""
+    try:
+        if typ is bool:
+            if value.lower() in ("true", "1", "yes"):
+                return True
+            if value.lower() in ("false", "0", "no"):
+                return False
+            raise ValueError(value)
+        if typ is int:
+            return int(float(value)) if "e" in value.lower() else int(value)
+        if typ is float:
+            return float(value)
+        if typ is str:
+            return value
+        if typing.get_origin(typ) is tuple:
+            parts = [p for p in value.strip("()[] ").split(",") if p.strip()]
+            return tuple(int(p) for p in parts)
+    except ValueError:
+        pass
+    name = getattr(typ, "__name__", str(typ))
+    raise UserError(f"config key {key!r}: {value!r} is not a valid {name}")
+
+
+def _field_types(section_cls: type) -> dict[str, Any]:
+    hints = typing.get_type_hints(section_cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(section_cls)}
+
+
+def apply_overrides(config: Config, overrides: dict[str, Any]) -> Config:
+    """Return `config` with `section.key` values replaced; strings are parsed to the field's type."""
+    sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
+    for key, value in overrides.items():
+        if key.count(".") != 1:
+            raise UserError(f"config key {key!r}: expected section.key (sections: {', '.join(sections)})")
+        section, name = key.split(".")
+        if section not in sections:
+            raise UserError(f"config key {key!r}: no section {section!r} (sections: {', '.join(sections)})")
+        types = _field_types(type(sections[section]))
+        if name not in types:
+            raise UserError(f"config key {key!r} does not exist ({section} has: {', '.join(types)})")
+        typ = types[name]
+        if isinstance(value, str) and typ is not str:
+            value = _coerce(value, typ, key)
+        elif typing.get_origin(typ) is tuple and isinstance(value, list):
+            value = tuple(value)
+        elif typ is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        sections[section] = dataclasses.replace(sections[section], **{name: value})
+    result = Config(**sections)
+    validate(result)
+    return result
+
+
+def parse_set_args(items: list[str]) -> dict[str, str]:
+    """`["ppo.learning_rate=3e-4", ...]` -> {"ppo.learning_rate": "3e-4", ...}."""
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise UserError(f"--set {item!r}: expected section.key=value")
+        key, value = item.split("=", 1)
+        out[key.strip()] = value.strip()
+    return out
+
+
+def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) -> Config:
+    """A preset plus overrides, validated."""
+    if preset not in PRESETS:
+        raise UserError(f"preset {preset!r} does not exist (presets: {', '.join(PRESETS)})")
+    config = apply_overrides(Config(), PRESETS[preset])
+    return apply_overrides(config, overrides or {})
+
+
+def validate(config: Config) -> None:
+    """Reject values that would fail later, naming the key."""
+    env, ppo, run = config.env, config.ppo, config.run
+    checks = [
+        (env.control_hz > 0, "env.control_hz", "must be positive"),
+        (env.physics_hz > 0 and env.physics_hz % max(env.control_hz, 1) == 0, "env.physics_hz",
+         f"must be a positive multiple of env.control_hz ({env.control_hz})"),
+        (env.solver_iterations >= 1, "env.solver_iterations", "must be at least 1"),
+        (env.ls_iterations >= 1, "env.ls_iterations", "must be at least 1"),
+        (env.episode_seconds > 0, "env.episode_seconds", "must be positive"),
+        (env.max_joint_velocity > 0, "env.max_joint_velocity", "must be positive"),
+        (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
+        (ppo.num_envs >= 1, "ppo.num_envs", "must be at least 1"),
+        (ppo.unroll_length >= 1, "ppo.unroll_length", "must be at least 1"),
+        (ppo.num_minibatches >= 1 and (ppo.num_envs % ppo.num_minibatches == 0), "ppo.num_minibatches",
+         f"must divide ppo.num_envs ({ppo.num_envs})"),
+        (ppo.num_epochs >= 1, "ppo.num_epochs", "must be at least 1"),
+        (ppo.learning_rate > 0, "ppo.learning_rate", "must be positive"),
+        (0 < ppo.discounting <= 1, "ppo.discounting", "must be in (0, 1]"),
+        (0 <= ppo.gae_lambda <= 1, "ppo.gae_lambda", "must be in [0, 1]"),
+        (ppo.init_action_std > 0, "ppo.init_action_std", "must be positive"),
+        (all(h > 0 for h in ppo.policy_hidden), "ppo.policy_hidden", "sizes must be positive"),
+        (all(h > 0 for h in ppo.value_hidden), "ppo.value_hidden", "sizes must be positive"),
+        (run.total_samples > 0, "run.total_samples", "must be positive"),
+        (run.eval_every > 0, "run.eval_every", "must be positive"),
+        (run.checkpoint_every > 0, "run.checkpoint_every", "must be positive"),
+        (run.eval_episodes >= 1, "run.eval_episodes", "must be at least 1"),
+        (run.max_seconds >= 0, "run.max_seconds", "must be >= 0"),
+    ]
+    for ok, key, why in checks:
+        if not ok:
+            raise UserError(f"config key {key!r}: {why}")
+
+
+def to_dict(config: Config) -> dict[str, dict[str, Any]]:
+    return {f.name: dataclasses.asdict(getattr(config, f.name)) for f in dataclasses.fields(config)}
+
+
+def from_dict(data: dict[str, Any]) -> Config:
+    """Inverse of `to_dict`; unknown sections or keys are errors."""
+    flat = {}
+    for section, values in data.items():
+        if not isinstance(values, dict):
+            raise UserError(f"config section {section!r}: expected a mapping")
+        flat.update({f"{section}.{k}": v for k, v in values.items()})
+    return apply_overrides(Config(), flat)
+
+
+def save(config: Config, path: Path) -> None:
+    path.write_text(json.dumps(to_dict(config), indent=2) + "\n")
+
+
+def load(path: Path) -> Config:
+    if not path.is_file():
+        raise UserError(f"{path}: config file not found")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    return from_dict(data)
