@@ -18,6 +18,8 @@ XML_DIR = Path(__file__).resolve().parent.parent / "xml"
 DEFAULT_XML = XML_DIR / "humanoid.xml"
 
 BALL, HINGE = "ball", "hinge"
+_FREE, _BALL, _HINGE = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL),
+                        int(mujoco.mjtJoint.mjJNT_HINGE))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,7 +136,7 @@ def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
     if not xml_path.is_file():
         raise FileNotFoundError(f"{xml_path}: character file not found")
     model = mujoco.MjModel.from_xml_path(str(xml_path))
-    if model.njnt == 0 or model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE:
+    if model.njnt == 0 or int(model.jnt_type[0]) != _FREE:
         raise ValueError(f"{xml_path}: the first joint must be the root's free joint")
 
     raw = []
@@ -142,12 +144,12 @@ def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
         jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
         if jid < 0:
             raise ValueError(f"{xml_path}: joint {name!r} in clip_joint_order does not exist")
-        jtype = model.jnt_type[jid]
-        if jtype not in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_HINGE):
+        jtype = int(model.jnt_type[jid])
+        if jtype not in (_BALL, _HINGE):
             raise ValueError(f"{xml_path}: joint {name!r} must be a ball or hinge joint")
         kp, limit, weight = _custom_numeric(model, f"joint/{name}")
         dof = model.jnt_dofadr[jid]
-        raw.append((name, BALL if jtype == mujoco.mjtJoint.mjJNT_BALL else HINGE, jid, kp, limit, weight, dof))
+        raw.append((name, BALL if jtype == _BALL else HINGE, jid, kp, limit, weight, dof))
     root_weight = float(_custom_numeric(model, "joint/root")[2])
     total = root_weight + sum(r[5] for r in raw)
     joints = tuple(
@@ -164,7 +166,7 @@ def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
         )
         for name, kind, jid, kp, limit, weight, dof in raw
     )
-    n_actuated = sum(1 for j in range(model.njnt) if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE)
+    n_actuated = sum(1 for j in range(model.njnt) if int(model.jnt_type[j]) != _FREE)
     if n_actuated != len(joints):
         raise ValueError(f"{xml_path}: clip_joint_order names {len(joints)} of {n_actuated} joints")
 
