@@ -1,0 +1,349 @@
+"""PPO for mjxmimic: one jitted train step assembled from Brax's PPO pieces used as a library.
+
+Pieces taken from Brax (brax 0.14.2): `ppo.networks.make_ppo_networks` (policy/value MLPs, the
+tanh-squashed Gaussian), `ppo.losses.compute_ppo_loss` (GAE, clipped surrogate, value and entropy
+losses), `acting.generate_unroll` (the rollout scan), `acme.running_statistics` (observation
+normaliser) and `gradients.gradient_update_fn`; optax adam after global-norm gradient clipping.
+Brax's `ppo.train` monolith, its pmap and its Episode/AutoReset wrappers are not used: the
+environment resets itself (RSI draws a fresh start time on every reset).
+
+One call of `Trainer.train_step(ts)` is one PPO iteration, all on device, no host sync:
+  1. rollout: `ppo.unroll_length` steps of `ppo.num_envs` envs (samples = num_envs * unroll_length)
+     with the stochastic policy; the env auto-resets inside its own `step`;
+  2. observation normaliser update with the rollout's observations (before SGD, as Brax does);
+  3. `ppo.num_epochs` epochs, each a fresh shuffle of whole env trajectories into
+     `ppo.num_minibatches` minibatches, one adam step per minibatch.
+The input TrainState is donated. Timeouts (state.info["truncation"] = 1) are handled as in Brax:
+the truncated transition is masked out of GAE (no false "failure" value target of 0); falls and
+clip ends are terminations (value target 0 beyond them).
+
+Several devices: with `jax.local_device_count() > 1` the env batch (and so the rollouts) is
+sharded across a 1-D `Mesh` of the local devices (`NamedSharding` on the batch axis), parameters,
+optimiser and normaliser state are replicated, and XLA inserts the all-reduces (gradients,
+advantage and normaliser statistics are global). Minibatch shuffling permutes within each
+device's shard and every minibatch takes an equal slice from every device, so no trajectory
+crosses devices.
+
+Initial action std. Brax's `NormalTanhDistribution` splits the policy output into (loc, s) and
+uses std = softplus(s) + 0.001 (pre-tanh). After the usual init, the last policy layer is
+changed: kernel columns of the std half are set to 0 and their bias to
+softplus^-1(ppo.init_action_std - 0.001), so every state starts with exactly that std; kernel
+columns of the mean half are scaled by 0.01 (initial actions near 0, as in DeepMimic's 0.01
+output init). Both halves remain trainable (the std can become state dependent).
+
+Exported parameters (`export_params(ts)`, a plain pytree of float32 arrays) and the action:
+
+    {"normalizer": {"mean": [obs], "std": [obs]},
+     "policy": {"hidden_0": {"kernel": [obs, h0], "bias": [h0]}, ...,
+                "hidden_L": {"kernel": [h_last, 2*act], "bias": [2*act]}}}
+
+    z = (obs - mean) / std                     (no clipping)
+    h = relu(z @ kernel_0 + bias_0) ... for every hidden layer; out = h @ kernel_L + bias_L
+    loc, s = out[:act], out[act:]
+    deterministic action = tanh(loc)           (the evaluation / playback policy)
+    stochastic action    = tanh(loc + (softplus(s) + 0.001) * N(0, 1))
+The action is in [-1, 1]; the env turns it into PD targets (times env.action_scale).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import Any, Callable
+
+import flax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from flax import linen
+
+from mjxmimic.compat import patch_jax_for_brax
+
+patch_jax_for_brax()
+
+from brax.training import acting, gradients  # noqa: E402
+from brax.training import types as brax_types  # noqa: E402
+from brax.training.acme import running_statistics  # noqa: E402
+from brax.training.agents.ppo import losses as ppo_losses  # noqa: E402
+from brax.training.agents.ppo import networks as ppo_networks  # noqa: E402
+from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
+
+from mjxmimic.config import Config  # noqa: E402
+from mjxmimic.errors import UserError  # noqa: E402
+
+BATCH_AXIS = "batch"
+MIN_STD = 0.001  # NormalTanhDistribution's default min_std
+_STEP_METRICS = "_step_metrics"  # info key under which the batched env exposes state.metrics
+
+
+@flax.struct.dataclass
+class TrainState:
+    """Everything one iteration reads and writes. `env_state` is batched ([num_envs, ...])."""
+
+    params: ppo_losses.PPONetworkParams  # .policy, .value: flax param dicts {"params": {...}}
+    optimizer_state: optax.OptState
+    normalizer: running_statistics.RunningStatisticsState
+    env_state: Any  # brax.envs.base.State, batched
+    key: jax.Array  # raw uint32[2] PRNG key
+    env_steps: brax_types.UInt64  # samples consumed so far; int(ts.env_steps) on the host
+
+
+class _BatchedEnv:
+    """vmap of the single env; copies each step's `state.metrics` into info so that Brax's
+    `generate_unroll` records them (it only records `info` fields)."""
+
+    def __init__(self, env):
+        self.env = env
+
+    @staticmethod
+    def _expose(state):
+        info = dict(state.info)
+        info.setdefault("truncation", jnp.zeros_like(state.done))
+        info[_STEP_METRICS] = dict(state.metrics)
+        return state.replace(info=info)
+
+    def reset(self, keys):
+        return self._expose(jax.vmap(self.env.reset)(keys))
+
+    def step(self, state, action):
+        inner = state.replace(info={k: v for k, v in state.info.items() if k != _STEP_METRICS})
+        return self._expose(jax.vmap(self.env.step)(inner, action))
+
+
+def _softplus_inverse(y: float) -> float:
+    return float(np.log(np.expm1(y)))
+
+
+def _init_output_layer(policy_params: dict, action_size: int, init_std: float) -> dict:
+    """Set the initial std exactly and shrink the initial mean (see the module docstring)."""
+    layers = policy_params["params"]
+    last = f"hidden_{len(layers) - 1}"
+    kernel, bias = layers[last]["kernel"], layers[last]["bias"]
+    kernel = jnp.concatenate([kernel[:, :action_size] * 0.01, jnp.zeros_like(kernel[:, action_size:])], axis=1)
+    bias = jnp.concatenate([jnp.zeros_like(bias[:action_size]),
+                            jnp.full_like(bias[action_size:], _softplus_inverse(init_std - MIN_STD))])
+    new_layers = {**layers, last: {"kernel": kernel, "bias": bias}}
+    return {**policy_params, "params": new_layers}
+
+
+def export_params(ts: TrainState) -> dict:
+    """The policy as a plain pytree of arrays (layout in the module docstring)."""
+    return {
+        "normalizer": {"mean": ts.normalizer.mean, "std": ts.normalizer.std},
+        "policy": dict(ts.params.policy["params"]),
+    }
+
+
+@dataclasses.dataclass
+class Trainer:
+    """Built by `make_trainer`. `train_step` is the jitted iteration; `init(seed)` a fresh state."""
+
+    env: Any
+    config: Config
+    networks: ppo_networks.PPONetworks
+    optimizer: optax.GradientTransformation
+    mesh: Mesh
+    num_devices: int
+    samples_per_iteration: int
+    train_step: Callable[[TrainState], tuple[TrainState, dict]] = dataclasses.field(repr=False, default=None)
+    _batched_env: _BatchedEnv = dataclasses.field(repr=False, default=None)
+    _state_sharding: Any = dataclasses.field(repr=False, default=None)
+    _reset: Callable = dataclasses.field(repr=False, default=None)
+
+    # ---- shardings -------------------------------------------------------------------------
+    @property
+    def replicated(self) -> NamedSharding:
+        return NamedSharding(self.mesh, P())
+
+    @property
+    def batch_sharded(self) -> NamedSharding:
+        return NamedSharding(self.mesh, P(BATCH_AXIS))
+
+    def _constrain(self, x, spec):
+        if self.num_devices == 1:
+            return x
+        return jax.lax.with_sharding_constraint(x, NamedSharding(self.mesh, spec))
+
+    # ---- state -----------------------------------------------------------------------------
+    def init_learner(self, key: jax.Array):
+        """(params, optimizer_state, normalizer) for a fresh run."""
+        cfg = self.config.ppo
+        k_policy, k_value = jax.random.split(key)
+        policy = self.networks.policy_network.init(k_policy)
+        policy = _init_output_layer(policy, self.env.action_size, cfg.init_action_std)
+        value = self.networks.value_network.init(k_value)
+        params = ppo_losses.PPONetworkParams(policy=policy, value=value)
+        normalizer = running_statistics.init_state(
+            jax.ShapeDtypeStruct((self.env.observation_size,), jnp.float32))
+        return params, self.optimizer.init(params), normalizer
+
+    def init(self, seed: int) -> TrainState:
+        """A fresh TrainState, placed on the mesh (env batch sharded, the rest replicated)."""
+        key = jax.random.PRNGKey(seed)
+        key, k_learner, k_env = jax.random.split(key, 3)
+        params, opt_state, normalizer = self.init_learner(k_learner)
+        ts = TrainState(params=params, optimizer_state=opt_state, normalizer=normalizer,
+                        env_state=self.reset_envs(k_env), key=key,
+                        env_steps=brax_types.UInt64(hi=0, lo=0))
+        return self.place(ts)
+
+    def reset_envs(self, key: jax.Array):
+        """A fresh batch of env states (RSI), sharded over the mesh."""
+        keys = jax.random.split(key, self.config.ppo.num_envs)
+        return self._reset(jax.device_put(keys, self.batch_sharded))
+
+    def place(self, ts: TrainState) -> TrainState:
+        """Put a TrainState (e.g. one restored from a checkpoint) on the mesh layout."""
+        return jax.device_put(ts, self.state_sharding(ts))
+
+    def state_sharding(self, ts: TrainState) -> TrainState:
+        rep, bat = self.replicated, self.batch_sharded
+        tree = jax.tree_util.tree_map(lambda _: rep, ts)
+        return tree.replace(env_state=jax.tree_util.tree_map(lambda _: bat, ts.env_state))
+
+    # ---- policy ----------------------------------------------------------------------------
+    def make_policy(self, params: dict, deterministic: bool = True) -> Callable:
+        """fn(obs, key) -> action in [-1, 1] for `export_params`-style params (obs may be batched)."""
+        return make_policy_fn(self.networks, params, deterministic)
+
+    # ---- the iteration ---------------------------------------------------------------------
+    def _shuffle_into_minibatches(self, x: jax.Array, key: jax.Array) -> jax.Array:
+        """[B, ...] -> [M, B/M, ...]: permute within each device's shard, each minibatch takes
+        an equal slice of every shard (stays sharded on the batch axis, no cross-device moves)."""
+        d, m = self.num_devices, self.config.ppo.num_minibatches
+        b = x.shape[0]
+        rest = x.shape[1:]
+        x = self._constrain(x.reshape((d, b // d) + rest), P(BATCH_AXIS))
+        perms = jax.vmap(lambda k: jax.random.permutation(k, b // d))(jax.random.split(key, d))
+        x = jax.vmap(lambda xi, p: xi[p])(x, perms)
+        x = x.reshape((d, m, b // (d * m)) + rest)
+        x = jnp.swapaxes(x, 0, 1).reshape((m, b // m) + rest)
+        return self._constrain(x, P(None, BATCH_AXIS))
+
+    def _train_step(self, ts: TrainState) -> tuple[TrainState, dict]:
+        cfg = self.config.ppo
+        key, k_unroll, k_sgd = jax.random.split(ts.key, 3)
+        policy = ppo_networks.make_inference_fn(self.networks)((ts.normalizer, ts.params.policy),
+                                                               deterministic=False)
+        env_state, data = acting.generate_unroll(
+            self._batched_env, ts.env_state, policy, k_unroll, cfg.unroll_length,
+            extra_fields=("truncation", _STEP_METRICS))
+        # data leaves are time-major [T, B, ...].
+        step_metrics = data.extras["state_extras"][_STEP_METRICS]
+        metrics = {k: jnp.mean(v) for k, v in step_metrics.items()}
+        metrics["reward"] = jnp.mean(data.reward)
+        done = 1.0 - data.discount
+        metrics["done_rate"] = jnp.mean(done)
+        if "fell" in step_metrics:
+            fell = step_metrics["fell"]
+            metrics["fall_rate"] = jnp.mean(fell)
+            metrics["falls_per_episode_end"] = jnp.sum(fell) / jnp.maximum(jnp.sum(done), 1.0)
+        metrics["truncation_rate"] = jnp.mean(data.extras["state_extras"]["truncation"])
+
+        data = data._replace(extras={
+            "policy_extras": data.extras["policy_extras"],
+            "state_extras": {"truncation": data.extras["state_extras"]["truncation"]},
+        })
+        data = jax.tree_util.tree_map(lambda x: jnp.swapaxes(x, 0, 1), data)  # [B, T, ...]
+
+        normalizer = ts.normalizer
+        if cfg.normalize_observations:
+            normalizer = running_statistics.update(normalizer, data.observation)
+
+        loss_fn = functools.partial(
+            ppo_losses.compute_ppo_loss, ppo_network=self.networks, entropy_cost=cfg.entropy_cost,
+            discounting=cfg.discounting, reward_scaling=cfg.reward_scaling, gae_lambda=cfg.gae_lambda,
+            clipping_epsilon=cfg.clipping_epsilon, normalize_advantage=True)
+        update = gradients.gradient_update_fn(loss_fn, self.optimizer, pmap_axis_name=None, has_aux=True)
+
+        def minibatch_step(carry, batch):
+            params, opt_state, k = carry
+            k, k_loss = jax.random.split(k)
+            (_, loss_metrics), params, opt_state = update(params, normalizer, batch, k_loss,
+                                                          optimizer_state=opt_state)
+            return (params, opt_state, k), loss_metrics
+
+        def epoch(carry, _):
+            params, opt_state, k = carry
+            k, k_perm, k_grad = jax.random.split(k, 3)
+            batches = jax.tree_util.tree_map(lambda x: self._shuffle_into_minibatches(x, k_perm), data)
+            (params, opt_state, _), loss_metrics = jax.lax.scan(
+                minibatch_step, (params, opt_state, k_grad), batches)
+            return (params, opt_state, k), loss_metrics
+
+        (params, opt_state, _), loss_metrics = jax.lax.scan(
+            epoch, (ts.params, ts.optimizer_state, k_sgd), None, length=cfg.num_epochs)
+        for name, value in loss_metrics.items():
+            metrics[f"ppo/{name}"] = jnp.mean(value)
+        metrics["policy/std"] = metrics.pop("ppo/policy_dist_mean_std")
+
+        new_ts = TrainState(params=params, optimizer_state=opt_state, normalizer=normalizer,
+                            env_state=env_state, key=key,
+                            env_steps=ts.env_steps + self.samples_per_iteration)
+        return new_ts, metrics
+
+
+def make_policy_fn(networks: ppo_networks.PPONetworks, params: dict, deterministic: bool = True) -> Callable:
+    """fn(obs, key) -> action for `export_params`-style params. Deterministic: tanh(loc)."""
+    normalizer = running_statistics.NestedMeanStd(mean=params["normalizer"]["mean"],
+                                                  std=params["normalizer"]["std"])
+    policy_params = {"params": params["policy"]}
+    dist = networks.parametric_action_distribution
+
+    def policy(obs: jax.Array, key: jax.Array) -> jax.Array:
+        logits = networks.policy_network.apply(normalizer, policy_params, obs)
+        if deterministic:
+            return dist.mode(logits)
+        return dist.sample(logits, key)
+
+    return policy
+
+
+def make_networks(observation_size: int, action_size: int, config: Config) -> ppo_networks.PPONetworks:
+    return ppo_networks.make_ppo_networks(
+        observation_size, action_size,
+        preprocess_observations_fn=running_statistics.normalize,
+        policy_hidden_layer_sizes=tuple(config.ppo.policy_hidden),
+        value_hidden_layer_sizes=tuple(config.ppo.value_hidden),
+        activation=linen.relu,
+        distribution_type="tanh_normal",
+    )
+
+
+def make_trainer(env, config: Config) -> Trainer:
+    """A Trainer for `env` (the single, unbatched ImitationEnv API) and `config`."""
+    cfg = config.ppo
+    devices = jax.local_devices()
+    d = len(devices)
+    if cfg.num_envs % d:
+        raise UserError(f"config key 'ppo.num_envs': {cfg.num_envs} does not divide over the "
+                        f"{d} local devices (use a multiple of {d})")
+    if cfg.num_envs % (d * cfg.num_minibatches):
+        raise UserError(f"config key 'ppo.num_minibatches': num_envs ({cfg.num_envs}) must divide into "
+                        f"{cfg.num_minibatches} minibatches on each of {d} devices "
+                        f"(num_envs % (devices * num_minibatches) == 0)")
+    if cfg.init_action_std <= MIN_STD:
+        raise UserError(f"config key 'ppo.init_action_std': must be above {MIN_STD} (the minimum std)")
+
+    networks = make_networks(env.observation_size, env.action_size, config)
+    optimizer = optax.chain(optax.clip_by_global_norm(cfg.max_grad_norm), optax.adam(cfg.learning_rate))
+    mesh = Mesh(np.array(devices), (BATCH_AXIS,))
+    trainer = Trainer(env=env, config=config, networks=networks, optimizer=optimizer, mesh=mesh,
+                      num_devices=d, samples_per_iteration=cfg.num_envs * cfg.unroll_length)
+    trainer._batched_env = _BatchedEnv(env)
+    trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer.batch_sharded)
+
+    # Shardings of a TrainState, from shapes only (nothing runs).
+    def abstract_init(key):
+        params, opt_state, normalizer = trainer.init_learner(key)
+        keys = jax.random.split(key, cfg.num_envs)
+        return TrainState(params=params, optimizer_state=opt_state, normalizer=normalizer,
+                          env_state=trainer._batched_env.reset(keys), key=key,
+                          env_steps=brax_types.UInt64(hi=0, lo=0))
+
+    abstract = jax.eval_shape(abstract_init, jax.random.PRNGKey(0))
+    trainer._state_sharding = trainer.state_sharding(abstract)
+    trainer.train_step = jax.jit(trainer._train_step, donate_argnums=0,
+                                 out_shardings=(trainer._state_sharding, trainer.replicated))
+    return trainer
