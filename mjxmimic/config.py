@@ -33,7 +33,8 @@ class EnvConfig:
     rsi: bool = True  # reset to a random reference time; else to the clip's start
     early_termination: bool = True
     max_joint_velocity: float = 100.0  # beyond this (or NaN) the state is discarded and reset
-    action_scale: float = 1.0  # policy output -> PD targets (rad), added to nothing: absolute targets
+    action_mode: str = "absolute"  # "absolute" PD targets (DeepMimic) or "residual" to the reference
+    action_scale: float = 1.0  # absolute: 1 spans +-pi (ball) and the range (hinge); residual: rad
 
 
 @dataclasses.dataclass(frozen=True)
@@ -187,6 +188,8 @@ def validate(config: Config) -> None:
         (env.ls_iterations >= 1, "env.ls_iterations", "must be at least 1"),
         (env.episode_seconds > 0, "env.episode_seconds", "must be positive"),
         (env.max_joint_velocity > 0, "env.max_joint_velocity", "must be positive"),
+        (env.action_mode in ("absolute", "residual"), "env.action_mode", "must be 'absolute' or 'residual'"),
+        (env.action_scale > 0, "env.action_scale", "must be positive"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
         (ppo.num_envs >= 1, "ppo.num_envs", "must be at least 1"),
         (ppo.unroll_length >= 1, "ppo.unroll_length", "must be at least 1"),

@@ -1,0 +1,164 @@
+"""The imitation environment on the real walk clip: reward, RSI, ET, stability, parity with C MuJoCo."""
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+import pytest
+from mujoco import mjx
+
+from mjxmimic import motion, quat
+from mjxmimic.clip import load_clip
+from mjxmimic.config import make_config
+from mjxmimic.control import action_to_targets, pd_forces
+from mjxmimic.env import ImitationEnv
+from mjxmimic.kinematics import kin_from_data
+from mjxmimic.observation import observation
+from mjxmimic.reward import reward
+
+
+@pytest.fixture(scope="module")
+def env(deepmimic_dir, character):
+    clip = load_clip(deepmimic_dir / "motions" / "humanoid3d_walk.txt", character)
+    return ImitationEnv(make_config("cpu", {"env.action_mode": "residual"}), character, [clip])
+
+
+@pytest.fixture(scope="module")
+def transition(env):
+    return jax.jit(env.transition)
+
+
+def c_kin(model, qpos, qvel):
+    """Kinematics through MuJoCo's C library."""
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = qpos, qvel
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    mujoco.mj_comVel(model, data)
+    return kin_from_data(data, np)
+
+
+def random_state(env, rng):
+    """A random pose and velocity: random ball-joint rotations, hinge angles in range."""
+    qpos, qvel = motion.sample(env.motion, 0, rng.uniform(0, env.clip_duration))
+    qpos, qvel = np.asarray(qpos, np.float64).copy(), np.asarray(qvel, np.float64).copy()
+    lay = env.layout
+    qpos[lay.q_quat] = quat.normalize(rng.normal(size=lay.q_quat.shape))
+    qpos[lay.q_scalar[3:]] = rng.uniform(lay.hinge_low, lay.hinge_high)
+    qvel += rng.normal(scale=1.0, size=qvel.shape)
+    return qpos, qvel
+
+
+def test_reward_and_every_term_are_one_at_the_reference(env):
+    for t in np.linspace(0.0, 2.5, 6):
+        qpos, qvel = motion.sample(env.motion, 0, t)
+        k = c_kin(env.model, qpos, qvel)
+        total, terms = reward(env.layout, k, k, "released", np)
+        assert total == pytest.approx(1.0, abs=1e-4)
+        for name, value in terms.items():
+            if name.startswith("reward/"):
+                assert value == pytest.approx(1.0, abs=1e-4), name
+        paper, _ = reward(env.layout, k, k, "paper", np)
+        assert paper == pytest.approx(1.0, abs=1e-4)
+
+
+def test_reward_falls_as_pose_noise_grows(env):
+    rng = np.random.default_rng(0)
+    lay = env.layout
+    means = []
+    for sigma in (0.0, 0.05, 0.1, 0.2, 0.4, 0.8):
+        values = []
+        for t in np.linspace(0.1, 1.2, 8):
+            qpos, qvel = motion.sample(env.motion, 0, t)
+            qpos = np.asarray(qpos, np.float64)
+            ref = c_kin(env.model, qpos, qvel)
+            noisy = qpos.copy()
+            turn = quat.from_rotvec(rng.normal(scale=sigma, size=(len(lay.q_quat), 3)))
+            noisy[lay.q_quat] = quat.mul(noisy[lay.q_quat], turn)
+            noisy[lay.q_scalar[3:]] += rng.normal(scale=sigma, size=len(lay.q_scalar) - 3)
+            values.append(reward(lay, c_kin(env.model, noisy, qvel), ref, "released", np)[0])
+        means.append(np.mean(values))
+    assert means[0] == pytest.approx(1.0, abs=1e-4)
+    assert all(a > b for a, b in zip(means, means[1:])), means
+    assert means[-1] < 0.5
+
+
+def test_reset_state_is_the_reference_and_scores_one(env, transition):
+    state = env.reset_at(jax.random.PRNGKey(0), 0.4)
+    qpos, _ = motion.sample(env.motion, 0, 0.4)
+    np.testing.assert_allclose(state.pipeline_state.qpos, qpos, atol=1e-6)
+    assert state.obs.shape == (env.observation_size,) == (227,)
+    nxt = transition(state, jnp.zeros(env.action_size))  # PD toward the reference, one step
+    assert float(nxt.reward) > 0.7
+    assert float(nxt.done) == 0.0
+
+
+def test_rsi_draws_a_fresh_start_on_every_reset(env):
+    """Auto-reset (one env, many episodes) must not replay a cached first state."""
+    step = jax.jit(env.step)
+    state = env.reset(jax.random.PRNGKey(1))
+    starts = []
+    for _ in range(120):
+        state = state.replace(info=dict(state.info, steps=jnp.asarray(env.max_steps - 1, jnp.int32)))
+        state = step(state, jnp.zeros(env.action_size))
+        assert float(state.done) == 1.0 and float(state.info["truncation"]) == 1.0
+        starts.append(float(state.info["time"]))
+    starts = np.array(starts)
+    counts, _ = np.histogram(starts, bins=4, range=(0, env.clip_duration))
+    assert len(np.unique(starts)) == len(starts)
+    assert counts.min() >= 10, counts  # spread over the whole clip
+
+
+def test_early_termination_on_chest_contact_not_on_feet(env, transition):
+    standing = env.reset_at(jax.random.PRNGKey(0), 0.0)
+    after = transition(standing, jnp.zeros(env.action_size))
+    assert float(after.metrics["fell"]) == 0.0 and float(after.done) == 0.0  # feet on the floor
+
+    lying = np.asarray(standing.pipeline_state.qpos).copy()
+    lying[2] = 0.08  # root at chest-radius height ...
+    lying[3:7] = quat.from_rotvec(np.array([0.0, np.pi / 2, 0.0]))  # ... lying face down
+    state = standing.replace(pipeline_state=standing.pipeline_state.replace(qpos=jnp.asarray(lying)))
+    after = transition(state, jnp.zeros(env.action_size))
+    assert float(after.metrics["fell"]) == 1.0 and float(after.done) == 1.0
+    assert float(after.reward) == 0.0 and float(after.info["truncation"]) == 0.0
+
+
+def test_hundred_steps_on_four_envs_stay_finite(env):
+    reset = jax.jit(jax.vmap(env.reset))
+    step = jax.jit(jax.vmap(env.step))
+    state = reset(jax.random.split(jax.random.PRNGKey(2), 4))
+    key = jax.random.PRNGKey(3)
+    for _ in range(100):
+        key, sub = jax.random.split(key)
+        state = step(state, jax.random.uniform(sub, (4, env.action_size), minval=-1, maxval=1))
+        assert bool(jnp.all(jnp.isfinite(state.obs))) and bool(jnp.all(jnp.isfinite(state.reward)))
+    assert bool(jnp.all((state.reward >= 0) & (state.reward <= 1)))
+
+
+def test_kinematics_and_observation_match_mujoco_c(env):
+    """MJX kinematics vs C MuJoCo on random poses; the same observation code on both (numpy/JAX)."""
+    rng = np.random.default_rng(4)
+    fk = jax.jit(lambda q, v: env._kinematics(env._data0.replace(qpos=q, qvel=v)))
+    for _ in range(5):
+        qpos, qvel = random_state(env, rng)
+        c = c_kin(env.model, qpos, qvel)
+        j = kin_from_data(fk(jnp.asarray(qpos, jnp.float32), jnp.asarray(qvel, jnp.float32)), jnp)
+        for name in ("xipos", "xmat", "cvel", "com"):
+            np.testing.assert_allclose(np.asarray(getattr(j, name)), getattr(c, name), atol=2e-4, err_msg=name)
+        phase = rng.uniform()
+        np.testing.assert_allclose(np.asarray(observation(j, jnp.asarray(phase), jnp)),
+                                   observation(c, np.asarray(phase), np), atol=5e-4)
+
+
+def test_pd_law_is_the_same_in_numpy_and_jax(env):
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        qpos, qvel = random_state(env, rng)
+        action = rng.uniform(-1, 1, env.action_size)
+        for mode in ("absolute", "residual"):
+            t_np = action_to_targets(env.layout, action, qpos, mode, 0.5, np)
+            f_np = pd_forces(env.layout, qpos, qvel, t_np, 1 / 240, np)
+            t_j = action_to_targets(env.layout, jnp.asarray(action), jnp.asarray(qpos), mode, 0.5, jnp)
+            f_j = pd_forces(env.layout, jnp.asarray(qpos), jnp.asarray(qvel), t_j, 1 / 240, jnp)
+            np.testing.assert_allclose(np.asarray(f_j), f_np, rtol=1e-4, atol=1e-2)
+            assert np.all(f_np[:6] == 0)  # the root is not actuated
