@@ -82,7 +82,9 @@ class ImitationEnv(Env):
         except ValueError as err:
             raise UserError(f"config key 'clip.fall_contact': {err}") from None
         fall_geom = np.isin(self.model.geom_bodyid, fall_bodies)
-        slots = np.asarray(self._data0._impl.contact.geom)
+        # Contact slots are fixed per model; one collision pass tells which geoms each slot holds.
+        probe = mjx.collision(self.sys, mjx.kinematics(self.sys, self._data0))
+        slots = np.asarray(probe._impl.contact.geom)
         self._fall_slots = jnp.asarray(fall_geom[slots].any(axis=1))
         self.fall_contact = spec
         self._metric_keys = ["reward", "fell"] + [f"reward/{t}" for t in KINDS[config.reward.kind]]
