@@ -1,0 +1,155 @@
+"""`mjxmimic clips`: list and inspect motion clips.
+
+Each subcommand is a pair of functions, `add_<name>_arguments(parser)` and `run_<name>(args) -> int`,
+registered in SUBCOMMANDS; adding one (e.g. `render`) is a new pair and a new entry. Heavy imports
+belong inside the run function. This module and mjxmimic.clip stay free of JAX.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable
+from typing import NamedTuple
+
+from mjxmimic.errors import UserError
+
+
+class Subcommand(NamedTuple):
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int]
+
+
+def _add_clips_dir(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--clips-dir", metavar="DIR", default=None,
+                        help="folder of clip files searched after the project's clips/ "
+                             "(default: $MJXMIMIC_CLIPS, folders separated by the path separator)")
+
+
+# ------------------------------------------------------------------------------------------ list
+
+
+def add_list_arguments(parser: argparse.ArgumentParser) -> None:
+    _add_clips_dir(parser)
+
+
+def run_list(args: argparse.Namespace) -> int:
+    from mjxmimic.clip import list_clips, search_folders
+
+    clips = list_clips(args.clips_dir)
+    if not clips:
+        where = ", ".join(str(folder) for _, folder in search_folders(args.clips_dir))
+        print(f"no clips found (looked in: {where})")
+        return 0
+    width = max(len(name) for name, _, _ in clips)
+    swidth = max(len(label) for _, _, label in clips)
+    for name, path, label in clips:
+        print(f"{name:<{width}}  {label:<{swidth}}  {path}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------ info
+
+
+def add_info_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("clip", metavar="NAME|PATH", help="a clip name (see `mjxmimic clips list`) or a file")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    _add_clips_dir(parser)
+
+
+def clip_summary(clip, character) -> dict:
+    """The numbers `clips info` shows, as a JSON-ready dict."""
+    from mjxmimic.clip import lowest_points
+
+    feet = character.body_sets.get("feet")
+    lowest = lowest_points(character, clip.qpos)
+    summary = {
+        "valid": True,
+        "error": None,
+        "name": clip.name,
+        "path": str(clip.path) if clip.path is not None else None,
+        "frames": clip.num_frames,
+        "duration_s": round(clip.duration, 6),
+        "loop": clip.loop_mode,
+        "fps": round(clip.fps, 4),
+        "root_travel_m": round(clip.root_travel, 4),
+        "mean_speed_mps": round(clip.mean_speed, 4),
+        "heading_change_deg": round(math.degrees(clip.heading_change), 2),
+        "root_height_m": [round(float(clip.root_pos[:, 2].min()), 4),
+                          round(float(clip.root_pos[:, 2].max()), 4)],
+        "lowest_point_m": [round(float(lowest.min()), 4), round(float(lowest.max()), 4)],
+        "max_quat_norm_error": round(clip.max_quat_norm_error, 4),
+    }
+    if feet:
+        soles = lowest_points(character, clip.qpos, feet)
+        summary["lowest_sole_m"] = [round(float(soles.min()), 4), round(float(soles.max()), 4)]
+    return summary
+
+
+def _print_summary(s: dict) -> None:
+    rows = [
+        ("clip", s["name"]),
+        ("path", s["path"]),
+        ("frames", s["frames"]),
+        ("duration", f"{s['duration_s']:.3f} s"),
+        ("loop", s["loop"]),
+        ("frame rate", f"{s['fps']:.2f} fps"),
+        ("root travel", f"{s['root_travel_m']:.3f} m (heading change {s['heading_change_deg']:.1f} deg)"),
+        ("mean speed", f"{s['mean_speed_mps']:.3f} m/s"),
+        ("root height", "{:.3f} .. {:.3f} m".format(*s["root_height_m"])),
+        ("lowest point", "{:.3f} .. {:.3f} m over frames (0 = floor)".format(*s["lowest_point_m"])),
+    ]
+    if "lowest_sole_m" in s:
+        rows.append(("lowest sole", "{:.3f} .. {:.3f} m".format(*s["lowest_sole_m"])))
+    if s["max_quat_norm_error"] > 1e-6:
+        rows.append(("quaternions", f"normalised on load (file off by up to {s['max_quat_norm_error']:.3f})"))
+    rows.append(("verdict", "valid"))
+    width = max(len(k) for k, _ in rows)
+    for key, value in rows:
+        print(f"{key:<{width}}  {value}")
+
+
+def run_info(args: argparse.Namespace) -> int:
+    from mjxmimic.character import load_character
+    from mjxmimic.clip import ClipError, load_clip, resolve_clip
+
+    character = load_character()
+    try:
+        clip = load_clip(resolve_clip(args.clip, args.clips_dir), character)
+    except ClipError as err:
+        if args.json:
+            print(json.dumps({"clip": args.clip, "valid": False, "error": str(err)}))
+        else:
+            print(f"mjxmimic clips info: invalid: {err}", file=sys.stderr)
+        return 2
+    summary = clip_summary(clip, character)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        _print_summary(summary)
+    return 0
+
+
+# ------------------------------------------------------------------------------------ dispatcher
+
+SUBCOMMANDS: dict[str, Subcommand] = {
+    "list": Subcommand("list the clips that can be given by name", add_list_arguments, run_list),
+    "info": Subcommand("frames, duration, loop, rate, travel and validity of a clip",
+                       add_info_arguments, run_info),
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="clips_command", metavar="SUBCOMMAND", required=True)
+    for name, cmd in SUBCOMMANDS.items():
+        cmd.add_arguments(sub.add_parser(name, help=cmd.help, description=cmd.help))
+
+
+def run(args: argparse.Namespace) -> int:
+    command = SUBCOMMANDS.get(args.clips_command)
+    if command is None:  # only reachable when called without the parser
+        raise UserError(f"unknown clips subcommand {args.clips_command!r}")
+    return command.run(args)
