@@ -69,6 +69,7 @@ class RunConfig:
     checkpoint_every: int = 10_000_000  # samples between checkpoints
     eval_episodes: int = 64
     target_nr: float = 0.0  # stop once an evaluation reaches this NR; 0 = never
+    seed: int = 0  # PRNG seed of the run (network init, env resets, evaluation start times)
 
 
 @dataclasses.dataclass(frozen=True)
