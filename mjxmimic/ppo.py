@@ -111,6 +111,12 @@ class _BatchedEnv:
         return self._expose(jax.vmap(self.env.step)(inner, action))
 
 
+def _strip_weak_type(tree):
+    """Weak-typed scalars (e.g. the normaliser's std_eps) would make a restored state look new to
+    jit; give every leaf a strong dtype (as Brax's train does) so train_step compiles once."""
+    return jax.tree_util.tree_map(lambda x: jnp.asarray(x).astype(jnp.asarray(x).dtype), tree)
+
+
 def _softplus_inverse(y: float) -> float:
     return float(np.log(np.expm1(y)))
 
@@ -195,7 +201,7 @@ class Trainer:
 
     def place(self, ts: TrainState) -> TrainState:
         """Put a TrainState (e.g. one restored from a checkpoint) on the mesh layout."""
-        return jax.device_put(ts, self.state_sharding(ts))
+        return jax.device_put(_strip_weak_type(ts), self.state_sharding(ts))
 
     def state_sharding(self, ts: TrainState) -> TrainState:
         rep, bat = self.replicated, self.batch_sharded
@@ -281,7 +287,7 @@ class Trainer:
         new_ts = TrainState(params=params, optimizer_state=opt_state, normalizer=normalizer,
                             env_state=env_state, key=key,
                             env_steps=ts.env_steps + self.samples_per_iteration)
-        return new_ts, metrics
+        return _strip_weak_type(new_ts), metrics
 
 
 def make_policy_fn(networks: ppo_networks.PPONetworks, params: dict, deterministic: bool = True) -> Callable:

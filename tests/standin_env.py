@@ -40,7 +40,7 @@ class StandInEnv:
 
     def eval_horizon(self, t):
         if self.looping:
-            return 600 if isinstance(t, (int, float)) else jnp.int32(600)
+            return 600 if isinstance(t, (int, float)) else jnp.full(jnp.shape(t), 600, jnp.int32)
         if isinstance(t, (int, float)):
             return int(round((self.clip_duration - t) / self.control_dt))
         return jnp.round((self.clip_duration - t) / self.control_dt).astype(jnp.int32)

@@ -1,0 +1,103 @@
+"""Orbax checkpoints of everything a resume needs, except the env state (re-drawn by RSI).
+
+Layout of RUN/checkpoints/<env_steps>/ (orbax CheckpointManager, the last 2 kept):
+    params/     policy and value parameters          (PyTree, OCDBT)
+    optimizer/  adam state (count, mu, nu)             (PyTree, OCDBT)
+    learner/    normaliser state, rng key, env_steps   (PyTree, OCDBT)
+    meta/       JSON: env_steps, iterations, elapsed wall-clock seconds, time_to_skill, ...
+Every array item is written with an OCDBT target data file size of 8 MiB, so no file of a
+checkpoint exceeds 16 MB whatever the network size (GPU runs are resumed across 10-minute
+calls by carrying the run folder back; large files do not travel). A single array larger
+than the target still lands whole in one file: with [1024, 512] layers the largest array is
+1024 x 512 floats = 2 MiB.
+
+Saves are synchronous (a checkpoint is small) so that a process may exit right after `save`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+import orbax.checkpoint as ocp
+
+from mjxmimic.errors import UserError
+
+TARGET_FILE_BYTES = 8 * 1024 * 1024
+KEEP = 2
+_ARRAY_ITEMS = ("params", "optimizer", "learner")
+
+
+def checkpoint_dir(run_dir: Path) -> Path:
+    return Path(run_dir).resolve() / "checkpoints"
+
+
+def _manager(run_dir: Path, create: bool = True) -> ocp.CheckpointManager:
+    options = ocp.CheckpointManagerOptions(max_to_keep=KEEP, create=create,
+                                           enable_async_checkpointing=False)
+    return ocp.CheckpointManager(checkpoint_dir(run_dir), options=options,
+                                 item_names=_ARRAY_ITEMS + ("meta",))
+
+
+def latest_checkpoint(run_dir: Path) -> int | None:
+    """env_steps of the newest complete checkpoint in RUN/checkpoints, or None."""
+    if not checkpoint_dir(run_dir).is_dir():
+        return None
+    with _manager(run_dir, create=False) as mngr:
+        return mngr.latest_step()
+
+
+def _split(ts) -> dict[str, Any]:
+    return {
+        "params": {"policy": ts.params.policy, "value": ts.params.value},
+        "optimizer": ts.optimizer_state,
+        "learner": {"normalizer": ts.normalizer, "key": ts.key, "env_steps": ts.env_steps},
+    }
+
+
+def save(run_dir: Path, ts, *, iterations: int, elapsed_seconds: float, extra: dict | None = None) -> int:
+    """Write a checkpoint of TrainState `ts` named by its env_steps; returns env_steps."""
+    env_steps = int(ts.env_steps)
+    items = jax.device_get(_split(ts))
+    meta = {"env_steps": env_steps, "iterations": int(iterations),
+            "elapsed_seconds": float(elapsed_seconds), **(extra or {})}
+    args = {name: ocp.args.PyTreeSave(items[name], ocdbt_target_data_file_size=TARGET_FILE_BYTES)
+            for name in _ARRAY_ITEMS}
+    with _manager(run_dir) as mngr:
+        if env_steps in mngr.all_steps():  # e.g. Ctrl-C right after a periodic save
+            mngr.delete(env_steps)
+        mngr.save(env_steps, args=ocp.args.Composite(meta=ocp.args.JsonSave(meta), **args), force=True)
+        mngr.wait_until_finished()
+    return env_steps
+
+
+def restore(run_dir: Path, template, step: int | None = None):
+    """(TrainState, meta) from RUN's latest (or given) checkpoint. `template` is a TrainState of
+    the same structure (e.g. `trainer.init(seed)`); its env_state is kept (not checkpointed)."""
+    step = latest_checkpoint(run_dir) if step is None else step
+    if step is None:
+        raise UserError(f"{run_dir}: no checkpoint found in {checkpoint_dir(run_dir)}")
+    target = jax.tree_util.tree_map(np.asarray, jax.device_get(_split(template)))
+    args = {name: ocp.args.PyTreeRestore(target[name],
+                                         restore_args=jax.tree_util.tree_map(
+                                             lambda _: ocp.RestoreArgs(restore_type=np.ndarray), target[name]))
+            for name in _ARRAY_ITEMS}
+    with _manager(run_dir, create=False) as mngr:
+        out = mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore(), **args))
+    learner = out["learner"]
+    ts = template.replace(
+        params=template.params.replace(policy=out["params"]["policy"], value=out["params"]["value"]),
+        optimizer_state=out["optimizer"],
+        normalizer=learner["normalizer"],
+        key=learner["key"],
+        env_steps=learner["env_steps"],
+    )
+    return ts, dict(out["meta"])
+
+
+def file_sizes(run_dir: Path, step: int) -> dict[str, int]:
+    """Bytes of every file of one checkpoint (relative path -> size)."""
+    root = checkpoint_dir(run_dir) / str(step)
+    return {str(p.relative_to(root)): p.stat().st_size for p in root.rglob("*") if p.is_file()}
