@@ -104,6 +104,33 @@ class Character:
         return self.body_sets[name]
 
 
+# Fall-contact body sets by clip name (DEEPMIMIC.md, "Episodes"); anything else: all but the feet.
+FALL_CONTACT_BY_CLIP = {"cartwheel": "all-feet-hands", "crawl": "torso", "roll": "torso", "getup": "torso"}
+
+
+def default_fall_contact(clip_name: str) -> str:
+    for key, spec in FALL_CONTACT_BY_CLIP.items():
+        if key in clip_name:
+            return spec
+    return "all-feet"
+
+
+def resolve_xml(xml: str | Path) -> Path:
+    """A path, or a file name in the package's xml/ folder."""
+    path = Path(xml)
+    return path if path.is_file() else XML_DIR / path
+
+
+def physics_model(character: Character, physics_hz: int, solver_iterations: int,
+                  ls_iterations: int) -> mujoco.MjModel:
+    """A copy of the character's model at the given physics rate and solver settings."""
+    model = character.model.__copy__()
+    model.opt.timestep = 1.0 / physics_hz
+    model.opt.iterations = solver_iterations
+    model.opt.ls_iterations = ls_iterations
+    return model
+
+
 def _custom_text(model: mujoco.MjModel, name: str) -> str:
     idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
     if idx < 0:

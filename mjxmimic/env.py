@@ -9,18 +9,16 @@ step:  action -> PD targets -> `substeps` physics steps (PD law + mjx.step under
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import jax
 import jax.numpy as jnp
-import mujoco
 import numpy as np
 from brax.envs.base import Env, State
 from mujoco import mjx
 
 from mjxmimic import motion as motion_lib
-from mjxmimic.character import XML_DIR, Character, load_character
+from mjxmimic.character import Character, default_fall_contact, load_character, physics_model, resolve_xml
 from mjxmimic.config import Config
 from mjxmimic.control import action_to_targets, pd_forces
 from mjxmimic.errors import UserError
@@ -29,31 +27,6 @@ from mjxmimic.layout import make_layout
 from mjxmimic.observation import observation
 from mjxmimic.reward import KINDS, reward
 
-# Fall-contact body sets by clip name (DEEPMIMIC.md, "Episodes"); anything else: all but the feet.
-FALL_CONTACT_BY_CLIP = {"cartwheel": "all-feet-hands", "crawl": "torso", "roll": "torso", "getup": "torso"}
-
-
-def default_fall_contact(clip_name: str) -> str:
-    for key, spec in FALL_CONTACT_BY_CLIP.items():
-        if key in clip_name:
-            return spec
-    return "all-feet"
-
-
-def physics_model(character: Character, config: Config) -> mujoco.MjModel:
-    """The character's model with the configured physics rate and solver settings."""
-    model = character.model.__copy__()
-    model.opt.timestep = 1.0 / config.env.physics_hz
-    model.opt.iterations = config.env.solver_iterations
-    model.opt.ls_iterations = config.env.ls_iterations
-    return model
-
-
-def resolve_character_xml(xml: str) -> Path:
-    path = Path(xml)
-    return path if path.is_file() else XML_DIR / xml
-
-
 class ImitationEnv(Env):
     """One clip, one character; unbatched (vmap it)."""
 
@@ -61,7 +34,8 @@ class ImitationEnv(Env):
         self.config = config
         self.character = character
         self.clips = clips
-        self.model = physics_model(character, config)
+        self.model = physics_model(character, config.env.physics_hz, config.env.solver_iterations,
+                                   config.env.ls_iterations)
         self.sys = mjx.put_model(self.model)
         self.layout = make_layout(character)
         self.motion = jax.tree.map(jnp.asarray, motion_lib.build_motion_lib(clips, character))
@@ -190,7 +164,7 @@ class ImitationEnv(Env):
 def load_env_inputs(config: Config) -> tuple[Character, list[Any]]:
     from mjxmimic.clip import load_clip_source
 
-    character = load_character(resolve_character_xml(config.character.xml))
+    character = load_character(resolve_xml(config.character.xml))
     return character, [load_clip_source(config.clip.name, character)]
 
 

@@ -1,0 +1,160 @@
+"""Throughput and stability measurements (EVALUATION.md, "Samples per second").
+
+physics_only: PD substeps and mjx.step, no policy, reward or resets (the limit).
+env_step:     the full environment step (PD, physics, kinematics, observation, reward, resets).
+tracking:     how well plain PD tracking of the reference (residual action 0) survives at a physics
+              rate and solver setting: the stability and quality side of the physics-rate choice.
+Compile time and steady state are timed apart; the steady-state figure is the median of repeats.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import platform
+import statistics
+import time
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from mujoco import mjx
+
+from mjxmimic.config import Config, apply_overrides
+from mjxmimic.control import action_to_targets, pd_forces
+from mjxmimic.env import ImitationEnv
+
+
+def environment_info() -> dict[str, Any]:
+    import brax
+    import mujoco
+
+    dev = jax.devices()[0]
+    return {
+        "device": f"{dev.platform}:{dev.device_kind}",
+        "device_count": jax.device_count(),
+        "jax": jax.__version__,
+        "mujoco": mujoco.__version__,
+        "brax": brax.__version__,
+        "python": platform.python_version(),
+        "date": time.strftime("%Y-%m-%d"),
+    }
+
+
+def peak_memory_bytes() -> int | None:
+    stats = jax.devices()[0].memory_stats() or {}
+    return stats.get("peak_bytes_in_use")
+
+
+def _time(fn: Callable[[Any], Any], arg: Any, repeats: int) -> tuple[float, list[float], Any]:
+    """Compile+first call time, then steady-state times of `repeats` calls."""
+    start = time.perf_counter()
+    out = jax.block_until_ready(fn(arg))
+    compile_s = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = jax.block_until_ready(fn(out))
+        times.append(time.perf_counter() - start)
+    return compile_s, times, out
+
+
+@dataclasses.dataclass
+class Measurement:
+    kind: str
+    num_envs: int
+    physics_hz: int
+    substeps: int
+    solver_iterations: int
+    ls_iterations: int
+    control_steps: int
+    compile_s: float
+    median_s: float
+    samples_per_s: float
+    physics_steps_per_s: float
+    peak_memory_bytes: int | None
+
+
+def _measurement(kind: str, env: ImitationEnv, num_envs: int, steps: int, compile_s: float,
+                 times: list[float]) -> Measurement:
+    med = statistics.median(times)
+    sps = num_envs * steps / med
+    cfg = env.config.env
+    return Measurement(kind, num_envs, cfg.physics_hz, env.substeps, cfg.solver_iterations, cfg.ls_iterations,
+                       steps, compile_s, med, sps, sps * env.substeps, peak_memory_bytes())
+
+
+def physics_only(env: ImitationEnv, num_envs: int, steps: int = 32, repeats: int = 5) -> Measurement:
+    """PD substepping + mjx.step for `steps` control steps, targets fixed at the start pose."""
+    states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
+    cfg = env.config.env
+    zero = jnp.zeros(env.action_size)
+
+    def one_env(data):
+        targets = action_to_targets(env.layout, zero, data.qpos, cfg.action_mode, cfg.action_scale, jnp)
+
+        def substep(d, _):
+            forces = pd_forces(env.layout, d.qpos, d.qvel, targets, env.physics_dt, jnp)
+            return mjx.step(env.sys, d.replace(qfrc_applied=forces)), None
+
+        def control(d, _):
+            return jax.lax.scan(substep, d, None, length=env.substeps)[0], None
+
+        return jax.lax.scan(control, data, None, length=steps)[0]
+
+    fn = jax.jit(jax.vmap(one_env), donate_argnums=0)
+    compile_s, times, _ = _time(fn, states.pipeline_state, repeats)
+    return _measurement("physics_only", env, num_envs, steps, compile_s, times)
+
+
+def env_step(env: ImitationEnv, num_envs: int, steps: int = 32, repeats: int = 5) -> Measurement:
+    """The whole environment step (with resets) for `steps` control steps, zero actions."""
+    states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
+    zero = jnp.zeros((num_envs, env.action_size))
+    vstep = jax.vmap(env.step)
+
+    def run(state):
+        return jax.lax.scan(lambda s, _: (vstep(s, zero), None), state, None, length=steps)[0]
+
+    compile_s, times, _ = _time(jax.jit(run, donate_argnums=0), states, repeats)
+    return _measurement("env_step", env, num_envs, steps, compile_s, times)
+
+
+def tracking(env: ImitationEnv, num_envs: int, seconds: float = 4.0, seed: int = 0) -> dict[str, float]:
+    """PD tracking of the reference with residual action 0 from RSI starts, no resets: survival,
+    reward while upright, and how many states exploded (NaN or joint speed over the guard)."""
+    if env.config.env.action_mode != "residual":
+        raise ValueError("tracking needs env.action_mode = residual")
+    steps = int(round(seconds * env.config.env.control_hz))
+    zero = jnp.zeros((num_envs, env.action_size))
+    vtrans = jax.vmap(env.transition)
+
+    def run(key):
+        state = jax.vmap(env.reset)(jax.random.split(key, num_envs))
+
+        def body(carry, _):
+            state, alive, bad = carry
+            nxt = vtrans(state, zero)
+            exploded = (nxt.done > 0) & (nxt.metrics["fell"] == 0) & (nxt.info["truncation"] == 0)
+            reward = jnp.where(alive, nxt.reward, 0.0)
+            return (nxt, alive & (nxt.done == 0), bad | (alive & exploded)), (reward, alive)
+
+        (_, alive, bad), (rewards, alive_t) = jax.lax.scan(body, (state, jnp.ones(num_envs, bool),
+                                                                   jnp.zeros(num_envs, bool)), None, length=steps)
+        return rewards, alive_t, bad
+
+    rewards, alive_t, bad = jax.jit(run)(jax.random.PRNGKey(seed))
+    alive_t = np.asarray(alive_t)
+    alive_steps = alive_t.sum(axis=0)
+    return {
+        "seconds": seconds,
+        "survival_s": float(alive_steps.mean() / env.config.env.control_hz),
+        "survived_fraction": float((alive_steps == steps).mean()),
+        "reward_while_alive": float(np.asarray(rewards).sum() / max(alive_t.sum(), 1)),
+        "exploded_fraction": float(np.asarray(bad).mean()),
+    }
+
+
+def with_settings(config: Config, physics_hz: int, iterations: int, ls_iterations: int) -> Config:
+    return apply_overrides(config, {"env.physics_hz": physics_hz, "env.solver_iterations": iterations,
+                                    "env.ls_iterations": ls_iterations})
