@@ -1,0 +1,46 @@
+"""`mjxmimic export RUN [--out FILE] [--format npz|onnx]`: a run's policy as one portable file.
+
+Reads RUN/config.json, the latest checkpoint in RUN/checkpoints and (if present) RUN/eval.json,
+and writes RUN/policy.npz (or --out): network weights, observation normaliser, the character
+MJCF and the clip, and a manifest (mjxmimic.export documents every key). `mjxmimic play` and
+`mjxmimic render` need nothing else. ONNX (--format onnx) needs the `onnx` package.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder")
+    parser.add_argument("--out", type=Path, metavar="FILE", help="output file (default: RUN/policy.npz or .onnx)")
+    parser.add_argument("--format", choices=("npz", "onnx"), default=None,
+                        help="file format (default: from --out's suffix, else npz)")
+    parser.add_argument("--json", action="store_true", help="print the manifest as JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjxmimic.errors import UserError
+    from mjxmimic.export import export_run
+
+    fmt = args.format
+    if fmt is None:
+        fmt = "onnx" if args.out is not None and args.out.suffix == ".onnx" else "npz"
+    if args.out is not None and args.out.suffix not in (f".{fmt}",):
+        raise UserError(f"--out {args.out}: a {fmt} file should end in .{fmt}")
+    out, pf = export_run(args.run_dir, args.out, fmt)
+    if args.json:
+        print(json.dumps(dict(pf.manifest, file=str(out)), indent=1))
+        return 0
+    m = pf.manifest
+    sizes = " x ".join(str(h) for h in m["policy"]["hidden_sizes"])
+    line = (f"{out}: {fmt}, {out.stat().st_size / 1024:.0f} KiB; policy {m['observation']['size']} -> "
+            f"{sizes} -> {m['character']['action_size']}, clip {m['clip']['name']}, "
+            f"checkpoint {m['training']['checkpoint']:,} samples")
+    ev = m["training"].get("eval")
+    if ev and ev.get("nr") is not None:
+        line += f", training NR {ev['nr']:.3f}"
+    print(line)
+    return 0

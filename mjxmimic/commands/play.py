@@ -1,0 +1,136 @@
+"""`mjxmimic play POLICY`: an exported policy on MuJoCo's CPU simulator, numpy only (no JAX).
+
+    mjxmimic play POLICY [--clip NAME|PATH] [--episodes N] [--seed S] [--json] [--viewer]
+
+POLICY is a file from `mjxmimic export` (.npz, or .onnx with the onnx package) or a run folder
+holding policy.npz. Runs the sim-to-sim NR protocol of EVALUATION.md (mjxmimic.playback): N
+episodes (default 16) with the deterministic policy, each from the reference state at its start
+time, with the training's control step (PD substepping, fall rules) on mujoco.mj_step. Start
+times are the MJX evaluation's own (carried in the file) unless --seed, --clip or more episodes
+than it ran ask for a fresh seeded draw. Reports NR, fall rate, survival, pose and end-effector
+errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
+--viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+DEFAULT_EPISODES = 16
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("policy", type=Path, metavar="POLICY", help="exported policy file or run folder")
+    parser.add_argument("--clip", metavar="NAME|PATH", help="play on another clip (default: the file's own)")
+    parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
+    parser.add_argument("--episodes", type=int, default=None, help=f"episodes (default {DEFAULT_EPISODES})")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="draw start times from this seed instead of using the MJX evaluation's")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--viewer", action="store_true", help="watch in MuJoCo's viewer (needs a display)")
+
+
+def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
+    """(start times, label): the MJX evaluation's where they apply, else a seeded draw."""
+    ev = manifest.get("training", {}).get("eval") or {}
+    stored = ev.get("start_times") or []
+    n = DEFAULT_EPISODES if episodes is None else episodes
+    if seed is None and not clip_overridden and stored and n <= len(stored):
+        return stored[:n], f"the MJX evaluation's (seed {ev.get('seed')}, first {n} of {len(stored)})"
+    seed = 0 if seed is None else seed
+    return env.start_times(n, seed).tolist(), f"seeded draw (numpy, seed {seed})"
+
+
+def _viewer_loop(env, policy, starts):
+    import mujoco.viewer
+
+    from mjxmimic.playback import evaluate
+
+    with mujoco.viewer.launch_passive(env.model, env.data) as viewer:
+        clock = {"t": time.perf_counter()}
+
+        def on_step(e, s):
+            viewer.sync()
+            clock["t"] += e.control_dt
+            wait = clock["t"] - time.perf_counter()
+            if wait > 0:
+                time.sleep(wait)
+            else:
+                clock["t"] = time.perf_counter()
+            return viewer.is_running()
+
+        return evaluate(env, policy, starts, on_step=on_step)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjxmimic.errors import UserError
+
+    if args.viewer and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise UserError("--viewer needs a display (DISPLAY and WAYLAND_DISPLAY are unset); "
+                        "run without --viewer, or make a video with `mjxmimic render`")
+    if args.episodes is not None and args.episodes < 1:
+        raise UserError(f"--episodes {args.episodes}: must be at least 1")
+
+    from mjxmimic import export
+    from mjxmimic.playback import CpuEpisode, evaluate
+
+    pf = export.read(args.policy)
+    character = pf.character()
+    if args.clip is not None:
+        from mjxmimic.clip import load_clip_source
+
+        clip = load_clip_source(args.clip, character, args.clips_dir)
+    else:
+        clip = pf.clip()
+    env = CpuEpisode(pf.config(), character, clip)
+    policy = pf.policy()
+    starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)
+
+    if args.viewer:
+        result = _viewer_loop(env, policy, starts)
+    else:
+        result = evaluate(env, policy, starts)
+
+    ev = pf.manifest.get("training", {}).get("eval") or {}
+    mjx_nr = ev.get("nr") if args.clip is None else None
+    import mujoco
+
+    out = {
+        "policy": str(pf.path),
+        "clip": clip.name,
+        "simulator": f"mujoco {mujoco.__version__} (CPU, mj_step)",
+        "physics_hz": env.config.env.physics_hz,
+        "substeps": env.substeps,
+        "starts": label,
+        **result,
+        "mjx_nr": mjx_nr,
+        "mjx_episodes": ev.get("episodes") if mjx_nr is not None else None,
+        "ratio": (result["nr"] / mjx_nr) if mjx_nr else None,
+    }
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    rows = [
+        ("sim-to-sim NR (CPU)", f"{out['nr']:.4f}  (+- {out['nr_std']:.4f} over episodes)"),
+        ("training NR (MJX)", "n/a (not in the file)" if mjx_nr is None
+         else f"{mjx_nr:.4f}  ({out['mjx_episodes']} episodes)"),
+        ("ratio CPU / MJX", "n/a" if out["ratio"] is None else f"{out['ratio']:.3f}"),
+        ("fall rate", f"{out['fall_rate']:.3f}"),
+        ("mean survival (s)", f"{out['survival_s']:.2f}"),
+        ("pose error (rad)", f"{out['pose_error_rad']:.4f}"),
+        ("end-effector error (m)", f"{out['end_effector_error_m']:.4f}"),
+        ("episodes", f"{out['episodes']}, start times: {label}"),
+        ("speed", f"{out['control_steps']:,} control steps in {out['eval_seconds']:.1f} s "
+                  f"({out['steps_per_s']:,.0f}/s)"),
+    ]
+    width = max(len(k) for k, _ in rows)
+    print(f"{pf.path} on {clip.name}, {out['simulator']}, {env.config.env.physics_hz} Hz physics")
+    for key, value in rows:
+        print(f"  {key:<{width}}  {value}")
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,71 @@
+"""`mjxmimic render RUN|POLICY --out FILE.mp4 [--ghost]`: a headless video of a policy.
+
+One episode on MuJoCo's CPU simulator (as `mjxmimic play` runs it) from the reference state at
+--start, one frame per control step, until the episode ends or --seconds pass; --ghost adds the
+reference motion as a translucent copy of the character. POLICY is an exported file; a RUN folder
+uses RUN/policy.npz, or its latest checkpoint when there is none (that path imports JAX).
+Rendering is offscreen: EGL or OSMesa (mjxmimic.render says which packages); videos need the
+"render" extra (imageio, imageio-ffmpeg).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("source", type=Path, metavar="RUN|POLICY", help="run folder or exported policy file")
+    parser.add_argument("--out", type=Path, required=True, metavar="FILE.mp4", help="video file to write")
+    parser.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=False,
+                        help="show the reference motion as a translucent ghost")
+    parser.add_argument("--clip", metavar="NAME|PATH", help="another clip (default: the policy's own)")
+    parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
+    parser.add_argument("--start", type=float, default=0.0, help="clip time of the first frame (s)")
+    parser.add_argument("--seconds", type=float, default=None,
+                        help="at most this long (default: until the episode ends, at most env.episode_seconds)")
+    parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--height", type=int, default=480)
+
+
+def load_policy(source: Path):
+    """An exported PolicyFile from a file or a run folder (exporting in memory if need be)."""
+    from mjxmimic import export
+    from mjxmimic.errors import UserError
+
+    if source.is_dir() and not (source / f"{export.DEFAULT_NAME}.npz").is_file():
+        if not (source / "checkpoints").is_dir():
+            raise UserError(f"{source}: neither a policy file nor a run folder with checkpoints")
+        return export.policy_file_from_run(source)
+    return export.read(source)
+
+
+def _check_size(width: int, height: int) -> None:
+    from mjxmimic.errors import UserError
+
+    for name, v in (("--width", width), ("--height", height)):
+        if v < 16 or v % 16:
+            raise UserError(f"{name} {v}: must be a positive multiple of 16 (video encoding)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjxmimic.errors import UserError
+    from mjxmimic.render import render_policy, setup_gl
+
+    _check_size(args.width, args.height)
+    if args.seconds is not None and args.seconds <= 0:
+        raise UserError(f"--seconds {args.seconds}: must be positive")
+    setup_gl()  # before anything imports mujoco, where possible
+    pf = load_policy(args.source)
+    clip = None
+    if args.clip is not None:
+        from mjxmimic.clip import load_clip_source
+
+        clip = load_clip_source(args.clip, pf.character(), args.clips_dir)
+    info = render_policy(pf, args.out, ghost=args.ghost, clip=clip, start=args.start, seconds=args.seconds,
+                         width=args.width, height=args.height)
+    end = "fell" if info["fell"] else "did not fall"
+    print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s at {info['fps']:.0f} fps, "
+          f"{args.out.stat().st_size / 1024:.0f} KiB; {info['clip']} from t={info['start_time']:.2f} s, "
+          f"{end}, mean reward {info['mean_reward']:.3f} (MUJOCO_GL={info['gl']})")
+    return 0

@@ -1,0 +1,254 @@
+"""Headless videos: a policy on MuJoCo's CPU simulator with its reference motion as a ghost, or a
+clip on its own. numpy + mujoco + imageio (the "render" extra); no JAX.
+
+OpenGL backend: MuJoCo reads MUJOCO_GL when `mujoco` is first imported. If it is unset (or asks
+for a window where there is no display), `setup_gl()` picks a headless one: EGL when an EGL
+driver is installed (NVIDIA's on a GPU machine, Mesa's software llvmpipe on a CPU machine), else
+OSMesa. Debian packages: EGL = libegl1 libegl-mesa0 libgl1-mesa-dri; OSMesa = libosmesa6.
+Set MUJOCO_GL=egl|osmesa to choose yourself.
+
+The ghost is a second copy of the character (MjSpec attach, names prefixed "ghost/") whose geoms
+are translucent (alpha 0.3), tinted, and collide with nothing; it is never simulated, only posed
+by the reference qpos each frame. The camera follows the simulated root from the side.
+"""
+
+from __future__ import annotations
+
+import ctypes.util
+import os
+import sys
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+import numpy as np
+
+from mjxmimic.errors import UserError
+
+GHOST_PREFIX = "ghost/"
+GHOST_RGBA = (1.0, 0.62, 0.25, 0.3)
+EGL_VENDOR_DIRS = ("/usr/share/glvnd/egl_vendor.d", "/etc/glvnd/egl_vendor.d")
+APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
+HEADLESS = ("egl", "osmesa")
+
+
+def _has_display() -> bool:
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _egl_available() -> bool:
+    if ctypes.util.find_library("EGL") is None:
+        return False
+    return any(Path(d).is_dir() and any(Path(d).glob("*.json")) for d in EGL_VENDOR_DIRS)
+
+
+def _osmesa_available() -> bool:
+    return ctypes.util.find_library("OSMesa") is not None
+
+
+def default_backend() -> str:
+    """The headless backend this machine can use: egl if an EGL driver is there, else osmesa."""
+    if _egl_available():
+        return "egl"
+    if _osmesa_available():
+        return "osmesa"
+    raise UserError(f"no headless OpenGL found for rendering: {APT_HINT}, or set MUJOCO_GL")
+
+
+def setup_gl() -> str:
+    """Choose MuJoCo's GL backend for offscreen rendering; call before the first Renderer.
+
+    Respects MUJOCO_GL when set (glfw only where a display exists). When mujoco was already
+    imported with a window backend, switches its GLContext class to the headless one.
+    """
+    want = os.environ.get("MUJOCO_GL", "").lower().strip()
+    if want in ("", "glfw", "enable", "enabled", "on", "true", "1") and not (want and _has_display()):
+        want = default_backend()
+        os.environ["MUJOCO_GL"] = want
+    if "mujoco" not in sys.modules:
+        return want
+    from mujoco.rendering.classic import gl_context
+
+    chosen = getattr(gl_context, "_MUJOCO_GL", "")
+    if want in HEADLESS and chosen != want:
+        # mujoco was imported before MUJOCO_GL was set: swap in the headless context class.
+        try:
+            if want == "egl":
+                from mujoco.egl import GLContext
+            else:
+                from mujoco.osmesa import GLContext
+        except (ImportError, RuntimeError) as err:
+            raise UserError(f"cannot use MUJOCO_GL={want} for rendering ({err}); {APT_HINT}") from None
+        import mujoco
+
+        gl_context.GLContext = GLContext
+        mujoco.GLContext = GLContext
+    return want
+
+
+def _imageio():
+    try:
+        import imageio.v2 as imageio
+        import imageio_ffmpeg  # noqa: F401 (the ffmpeg binary imageio uses for mp4)
+    except ImportError:
+        raise UserError("writing videos needs imageio and imageio-ffmpeg (pip install 'mjxmimic[render]')") from None
+    return imageio
+
+
+def ghost_model(character_xml: str | Path, ghost: bool = True, width: int = 640, height: int = 480):
+    """An MjModel of the character (qpos[:nq]) plus, with ghost=True, its translucent copy
+    (qpos[nq:2nq]); the offscreen buffer at least width x height."""
+    import mujoco
+
+    def load(src):
+        return mujoco.MjSpec.from_file(str(src)) if isinstance(src, Path) else mujoco.MjSpec.from_string(src)
+
+    spec = load(character_xml)
+    spec.visual.global_.offwidth = max(int(spec.visual.global_.offwidth), width)
+    spec.visual.global_.offheight = max(int(spec.visual.global_.offheight), height)
+    if ghost:
+        copy = load(character_xml)
+        root = copy.worldbody.first_body()
+        for geom in copy.geoms:
+            geom.rgba = list(GHOST_RGBA)
+            geom.contype = 0
+            geom.conaffinity = 0
+        spec.worldbody.add_frame().attach_body(root, GHOST_PREFIX, "")
+    return spec.compile()
+
+
+class Scene:
+    """Offscreen renderer of a character (and its ghost) posed by qpos; a side-on follow camera."""
+
+    def __init__(self, character_xml: str | Path, nq: int, ghost: bool = True, width: int = 640,
+                 height: int = 480, distance: float = 3.5, azimuth: float = 90.0, elevation: float = -12.0):
+        setup_gl()
+        import mujoco
+
+        self.nq = nq
+        self.ghost = ghost
+        self.model = ghost_model(character_xml, ghost, width, height)
+        self.data = mujoco.MjData(self.model)
+        try:
+            self.renderer = mujoco.Renderer(self.model, height=height, width=width)
+        except Exception as err:  # noqa: BLE001 (GL errors come in many types)
+            backend = os.environ.get("MUJOCO_GL", "")
+            raise UserError(f"cannot open an offscreen OpenGL context (MUJOCO_GL={backend}): "
+                            f"{str(err).splitlines()[0] if str(err) else type(err).__name__}; {APT_HINT}") from None
+        self.camera = mujoco.MjvCamera()
+        self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        self.camera.distance = distance
+        self.camera.azimuth = azimuth
+        self.camera.elevation = elevation
+        self._lookat: np.ndarray | None = None
+
+    def frame(self, qpos: Any, ghost_qpos: Any | None = None) -> np.ndarray:
+        """(height, width, 3) uint8 image of the pose(s)."""
+        import mujoco
+
+        d = self.data
+        d.qpos[: self.nq] = qpos
+        if self.ghost:
+            d.qpos[self.nq : 2 * self.nq] = qpos if ghost_qpos is None else ghost_qpos
+        mujoco.mj_forward(self.model, d)
+        target = np.array([d.qpos[0], d.qpos[1], 0.8])
+        # Follow the root smoothly (a critically damped look-at keeps the floor from jittering).
+        self._lookat = target if self._lookat is None else self._lookat + 0.2 * (target - self._lookat)
+        self.camera.lookat[:] = self._lookat
+        self.renderer.update_scene(d, camera=self.camera)
+        return self.renderer.render()
+
+    def close(self) -> None:
+        self.renderer.close()
+
+
+def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
+    """Write frames to an mp4 (H.264); returns the number of frames. Nothing half-written."""
+    imageio = _imageio()
+    path = Path(path)
+    if path.suffix.lower() not in (".mp4", ".m4v", ".mov", ".mkv"):
+        raise UserError(f"--out {path}: expected a video file name ending in .mp4")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.stem + ".part" + path.suffix)
+    n = 0
+    writer = imageio.get_writer(str(tmp), fps=fps, codec="libx264", quality=7, macro_block_size=16,
+                                pixelformat="yuv420p", ffmpeg_log_level="error")
+    try:
+        for image in frames:
+            writer.append_data(image)
+            n += 1
+    except BaseException:
+        writer.close()
+        tmp.unlink(missing_ok=True)
+        raise
+    writer.close()
+    if n == 0:
+        tmp.unlink(missing_ok=True)
+        raise UserError(f"--out {path}: no frames to write")
+    tmp.replace(path)
+    return n
+
+
+def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
+                  seconds: float | None = None, width: int = 640, height: int = 480,
+                  on_frame: Callable[[int], Any] | None = None) -> dict[str, Any]:
+    """Video of one episode of an exported policy (mjxmimic.export.PolicyFile) from the reference
+    state at clip time `start`, one frame per control step, until the episode ends (fall, clip
+    end, time limit) or `seconds` have passed."""
+    from mjxmimic.playback import CpuEpisode
+
+    character = pf.character()
+    env = CpuEpisode(pf.config(), character, clip if clip is not None else pf.clip())
+    policy = pf.policy()
+    limit = env.max_steps if seconds is None else max(1, int(round(seconds / env.control_dt)))
+    scene = Scene(pf.character_xml, character.nq, ghost, width, height)
+    info: dict[str, Any] = {"steps": 0, "fell": False, "reward": 0.0}
+
+    def frames():
+        obs = env.reset_at(start)
+        ref, _ = env.reference(env.time)
+        yield scene.frame(env.data.qpos, ref)
+        for _ in range(limit):
+            s = env.step(policy(obs))
+            info["steps"] += 1
+            info["reward"] += s.reward
+            ref, _ = env.reference(env.time)
+            yield scene.frame(env.data.qpos, ref)
+            if on_frame is not None:
+                on_frame(info["steps"])
+            if s.done:
+                info["fell"] = bool(s.fell or s.bad)
+                break
+            obs = s.obs
+
+    try:
+        n = write_video(frames(), out, fps=1.0 / env.control_dt)
+    finally:
+        scene.close()
+    return {"out": str(out), "frames": n, "fps": 1.0 / env.control_dt, "seconds": n * env.control_dt,
+            "steps": info["steps"], "fell": info["fell"],
+            "mean_reward": info["reward"] / max(info["steps"], 1), "ghost": ghost,
+            "clip": env.clip.name, "start_time": float(start), "gl": os.environ.get("MUJOCO_GL")}
+
+
+def render_clip(character, clip: Any, out: Path, *, seconds: float | None = None, fps: float = 30.0,
+                width: int = 640, height: int = 480) -> dict[str, Any]:
+    """Video of a clip's reference motion (kinematic, no physics): one cycle, or `seconds`."""
+    from mjxmimic import motion as motion_lib
+
+    lib = motion_lib.build_motion_lib([clip], character)
+    duration = float(lib.duration[0])
+    total = duration if seconds is None else float(seconds)
+    n = max(2, int(np.floor(total * fps + 1e-6)) + 1)
+    scene = Scene(Path(character.xml_path), character.nq, ghost=False, width=width, height=height)
+
+    def frames():
+        for k in range(n):
+            qpos, _ = motion_lib.sample(lib, 0, np.float32(min(k / fps, total)), np)
+            yield scene.frame(qpos)
+
+    try:
+        count = write_video(frames(), out, fps=fps)
+    finally:
+        scene.close()
+    return {"out": str(out), "frames": count, "fps": fps, "seconds": (count - 1) / fps, "clip": clip.name,
+            "loop": bool(clip.loop), "gl": os.environ.get("MUJOCO_GL")}
