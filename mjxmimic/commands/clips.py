@@ -133,12 +133,52 @@ def run_info(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------------------- render
+
+
+def add_render_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("clip", metavar="NAME|PATH", help="a clip name (see `mjxmimic clips list`) or a file")
+    parser.add_argument("--out", metavar="FILE.mp4", default=None, help="video file (default: NAME.mp4)")
+    parser.add_argument("--seconds", type=float, default=None, help="length (default: the clip's duration)")
+    parser.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
+    parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--height", type=int, default=480)
+    _add_clips_dir(parser)
+
+
+def run_render(args: argparse.Namespace) -> int:
+    """Headless video of the clip's reference motion (kinematic; mjxmimic.render)."""
+    from pathlib import Path
+
+    from mjxmimic.commands.render import _check_size
+    from mjxmimic.render import render_clip, setup_gl
+
+    _check_size(args.width, args.height)
+    if args.seconds is not None and args.seconds <= 0:
+        raise UserError(f"--seconds {args.seconds}: must be positive")
+    if args.fps <= 0:
+        raise UserError(f"--fps {args.fps}: must be positive")
+    setup_gl()
+    from mjxmimic.character import load_character
+    from mjxmimic.clip import load_clip, resolve_clip
+
+    character = load_character()
+    clip = load_clip(resolve_clip(args.clip, args.clips_dir), character)
+    out = Path(args.out) if args.out is not None else Path(f"{clip.name}.mp4")
+    info = render_clip(character, clip, out, seconds=args.seconds, fps=args.fps, width=args.width,
+                       height=args.height)
+    print(f"{out}: {info['frames']} frames, {info['seconds']:.2f} s at {info['fps']:g} fps, "
+          f"{out.stat().st_size / 1024:.0f} KiB (MUJOCO_GL={info['gl']})")
+    return 0
+
+
 # ------------------------------------------------------------------------------------ dispatcher
 
 SUBCOMMANDS: dict[str, Subcommand] = {
     "list": Subcommand("list the clips that can be given by name", add_list_arguments, run_list),
     "info": Subcommand("frames, duration, loop, rate, travel and validity of a clip",
                        add_info_arguments, run_info),
+    "render": Subcommand("headless video (mp4) of a clip's reference motion", add_render_arguments, run_render),
 }
 
 
