@@ -43,10 +43,12 @@ checkpoints), imported inside `params_from_run`.
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import datetime
 import hashlib
 import json
+import shutil
 import tempfile
 import warnings
 from pathlib import Path
@@ -97,10 +99,12 @@ class PolicyFile:
                 raise UserError(f"{self.path}: the embedded character XML does not match its sha256 "
                                 f"(file {digest[:12]}..., manifest {want[:12]}...)")
             name = Path(self.manifest["character"]["file"]).name or "character.xml"
-            with tempfile.TemporaryDirectory(prefix="mjxmimic-") as tmp:
-                xml_path = Path(tmp) / name
-                xml_path.write_text(self.character_xml, encoding="utf-8")
-                self._character = load_character(xml_path)
+            # The file stays for the life of the process (Character.sha256 reads it again).
+            tmp = tempfile.mkdtemp(prefix="mjxmimic-character-")
+            atexit.register(shutil.rmtree, tmp, True)
+            xml_path = Path(tmp) / name
+            xml_path.write_text(self.character_xml, encoding="utf-8")
+            self._character = load_character(xml_path)
         return self._character
 
     def clip(self):
@@ -252,6 +256,7 @@ def make_policy_file(config: config_lib.Config, character: Character, clip: Any,
     pf = PolicyFile(manifest=manifest, params=params, character_xml=xml,
                     clip_qpos=np.asarray(clip.qpos, np.float64), clip_durations=np.asarray(clip.durations, np.float64))
     manifest["arrays"] = {k: {"shape": list(v.shape), "dtype": str(v.dtype)} for k, v in pf.arrays().items()}
+    pf.manifest = json.loads(json.dumps(manifest))  # as a reader will see it (tuples become lists)
     return pf
 
 

@@ -29,6 +29,7 @@ GHOST_RGBA = (1.0, 0.62, 0.25, 0.3)
 EGL_VENDOR_DIRS = ("/usr/share/glvnd/egl_vendor.d", "/etc/glvnd/egl_vendor.d")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
 HEADLESS = ("egl", "osmesa")
+VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".mkv")
 
 
 def _has_display() -> bool:
@@ -165,7 +166,7 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
     """Write frames to an mp4 (H.264); returns the number of frames. Nothing half-written."""
     imageio = _imageio()
     path = Path(path)
-    if path.suffix.lower() not in (".mp4", ".m4v", ".mov", ".mkv"):
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
         raise UserError(f"--out {path}: expected a video file name ending in .mp4")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".part" + path.suffix)

@@ -1,0 +1,420 @@
+"""Export, numpy policy and CPU playback: parity with the MJX env and the JAX policy, the file's
+round trip, `mjxmimic play` end to end (and JAX-free), and sim-to-sim NR against MJX.
+
+One cpu-preset env and run folder are built per module (the run holds a checkpoint of freshly
+initialised, then randomised, parameters saved through mjxmimic.checkpoint; no training)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+import pytest
+
+from mjxmimic import checkpoint, export, motion, quat
+from mjxmimic import config as config_lib
+from mjxmimic.cli import main as cli_main
+from mjxmimic.env import make_env
+from mjxmimic.playback import CpuEpisode, evaluate
+from mjxmimic.policy_numpy import NumpyPolicy
+from mjxmimic.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+# ---------------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="module")
+def config():
+    return config_lib.make_config("cpu")
+
+
+@pytest.fixture(scope="module")
+def env(config):
+    return make_env(config)
+
+
+@pytest.fixture(scope="module")
+def cpu_env(env, config):
+    return CpuEpisode(config, env.character, env.clips[0])
+
+
+@pytest.fixture(scope="module")
+def transition(env):
+    return jax.jit(env.transition)
+
+
+@pytest.fixture(scope="module")
+def reset_at(env):
+    return jax.jit(env.reset_at)
+
+
+@pytest.fixture(scope="module")
+def kinematics(env):
+    return jax.jit(env._kinematics)
+
+
+@pytest.fixture(scope="module")
+def mjx_fns(reset_at, kinematics, transition):
+    return reset_at, kinematics, transition
+
+
+def _randomised_state(env, config, seed: int = 0) -> TrainState:
+    """A TrainState of fresh parameters, the normaliser and the policy's mean head randomised so
+    that every part of the exported function matters (actions of order 0.3, not ~0)."""
+    from brax.training import types as brax_types
+
+    trainer = make_trainer(env, config)
+    params, opt_state, normalizer = trainer.init_learner(jax.random.PRNGKey(seed))
+    rng = np.random.default_rng(seed)
+    n = env.observation_size
+    normalizer = normalizer.replace(mean=jnp.asarray(rng.normal(scale=0.3, size=n), jnp.float32),
+                                    std=jnp.asarray(rng.uniform(0.5, 2.0, size=n), jnp.float32))
+    layers = dict(params.policy["params"])
+    last = f"hidden_{len(layers) - 1}"
+    kernel = np.asarray(layers[last]["kernel"]).copy()
+    kernel[:, : env.action_size] *= 30.0
+    layers[last] = {"kernel": jnp.asarray(kernel), "bias": layers[last]["bias"]}
+    params = params.replace(policy={**params.policy, "params": layers})
+    return TrainState(params=params, optimizer_state=opt_state, normalizer=normalizer, env_state=None,
+                      key=jax.random.PRNGKey(seed), env_steps=brax_types.UInt64(hi=0, lo=1234))
+
+
+def _mjx_episodes(env, reset_at, transition, policy, starts):
+    """NR episodes on MJX through the env's own transition (mjxmimic.evaluate's counting: reward
+    until a fall or a non-timeout done, divided by the horizon)."""
+    act = jax.jit(policy)
+    out = []
+    for t0 in starts:
+        state = reset_at(jax.random.PRNGKey(0), jnp.float32(t0))
+        horizon = int(max(min(int(env.eval_horizon(jnp.float32(t0))), env.max_eval_horizon), 1))
+        total = 0.0
+        for k in range(horizon):
+            state = transition(state, act(state.obs, jax.random.PRNGKey(0)))
+            total += float(state.reward)
+            ended = bool(state.done) and not bool(state.info["truncation"])
+            if float(state.metrics["fell"]) > 0 or ended:
+                break
+        out.append(total / horizon)
+    return np.array(out)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory, env, config, reset_at, transition):
+    """A cpu-preset run folder: config.json, one checkpoint, eval.json with the MJX NR of 4 episodes
+    from the start times mjxmimic.evaluate would draw for the run's eval seed."""
+    run_dir = tmp_path_factory.mktemp("runs") / "cpu-run"
+    run_dir.mkdir()
+    config_lib.save(config, run_dir / "config.json")
+    ts = _randomised_state(env, config)
+    checkpoint.save(run_dir, ts, iterations=1, elapsed_seconds=1.5)
+    params = export_params(ts)
+    seed, n = config.run.seed + 1, 4
+    starts = export.mjx_eval_start_times(seed, n, env.clip_duration)
+    networks = make_networks(env.observation_size, env.action_size, config)
+    per_episode = _mjx_episodes(env, reset_at, transition, make_policy_fn(networks, params), starts)
+    (run_dir / "eval.json").write_text(json.dumps({"nr": float(per_episode.mean()), "episodes": n,
+                                                   "fall_rate": 1.0, "samples": 1234}))
+    return {"dir": run_dir, "ts": ts, "params": jax.tree_util.tree_map(np.asarray, params),
+            "mjx_per_episode": per_episode, "starts": starts}
+
+
+@pytest.fixture(scope="module")
+def policy_file(run):
+    out, pf = export.export_run(run["dir"])
+    return out
+
+
+# ------------------------------------------------------------------------- observation parity
+
+
+def _random_pose(env, rng, t, sigma):
+    """The reference at t with every joint turned by ~sigma rad, random velocities."""
+    qpos, qvel = motion.sample(env.motion, 0, t)
+    qpos, qvel = np.array(qpos, np.float64), np.array(qvel, np.float64)
+    lay = env.layout
+    turn = quat.from_rotvec(rng.normal(scale=sigma, size=(len(lay.q_quat) - 1, 3)))
+    qpos[lay.q_quat[1:]] = quat.mul(qpos[lay.q_quat[1:]], turn)
+    qpos[lay.q_scalar[3:]] += rng.normal(scale=sigma, size=len(lay.q_scalar) - 3)
+    qpos[3:7] = quat.mul(quat.from_rotvec(rng.normal(scale=sigma, size=3)), qpos[3:7])
+    qvel += rng.normal(scale=1.0, size=qvel.shape)
+    return qpos.astype(np.float32), qvel.astype(np.float32)
+
+
+def _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, action):
+    reset_at, kinematics, transition = mjx_fns
+    state = reset_at(jax.random.PRNGKey(0), jnp.float32(t))
+    data = kinematics(state.pipeline_state.replace(qpos=jnp.asarray(qpos), qvel=jnp.asarray(qvel)))
+    nxt = transition(state.replace(pipeline_state=data), jnp.asarray(action, jnp.float32))
+    cpu_env.set_state(qpos, qvel, t)
+    step = cpu_env.step(action)
+    return nxt, step
+
+
+def test_observation_parity_on_random_states_in_the_air(env, cpu_env, mjx_fns):
+    """Random poses, velocities and actions, lifted clear of the floor: one control step (PD
+    substeps, kinematics, reward, done, observation) on MJX and on MuJoCo C agree."""
+    rng = np.random.default_rng(1)
+    worst = {"obs": 0.0, "reward": 0.0}
+    for _ in range(8):
+        t = float(rng.uniform(0, env.clip_duration))
+        qpos, qvel = _random_pose(env, rng, t, sigma=0.4)
+        qpos[2] += 1.0  # no contact: the two simulators differ only in arithmetic
+        action = rng.uniform(-1, 1, env.action_size)
+        nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, action)
+        assert nxt.obs.shape == step.obs.shape == (env.observation_size,)
+        worst["obs"] = max(worst["obs"], float(np.max(np.abs(np.asarray(nxt.obs) - step.obs))))
+        worst["reward"] = max(worst["reward"], abs(float(nxt.reward) - step.reward))
+        assert bool(nxt.done) == step.done and bool(nxt.metrics["fell"]) == step.fell
+        assert cpu_env.time == pytest.approx(float(nxt.info["time"]), abs=1e-7)
+    assert worst["obs"] < 1e-3 and worst["reward"] < 1e-4, worst
+
+
+def _box_contact_spread_ok(model, data) -> bool:
+    """False where MJX's plane-box collision keeps fewer corners than MuJoCo C: MJX keeps only the
+    corners within 1 mm of the deepest (mjx/_src/collision_convex.py, plane_convex), C all that
+    penetrate. Same contact set iff every box's C contact depths lie within 1 mm."""
+    n = data.ncon
+    geoms, dist = data.contact.geom[:n], data.contact.dist[:n]
+    for g in np.unique(geoms):
+        if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
+            continue
+        d = dist[(geoms == g).any(axis=1)]
+        if d.size and d.max() - d.min() >= 1e-3:
+            return False
+    return True
+
+
+def test_observation_parity_from_reference_states_on_the_ground(env, cpu_env, mjx_fns, monkeypatch):
+    """RSI states with feet on the floor and small actions: the step agrees whenever the two
+    simulators have the same contact set. Where a foot box tilts by more than 1 mm along the floor,
+    MJX keeps fewer contact corners than MuJoCo C (a known MJX difference, not playback's), and
+    that step is counted, not compared."""
+    ok = {"flag": True}
+    original = mujoco.mj_step
+
+    def recording_step(model, data):
+        original(model, data)
+        ok["flag"] &= _box_contact_spread_ok(model, data)
+
+    monkeypatch.setattr(mujoco, "mj_step", recording_step)
+    rng = np.random.default_rng(2)
+    compared = 0
+    for _ in range(10):
+        t = float(rng.uniform(0, env.clip_duration))
+        qpos, qvel = (np.asarray(x, np.float32) for x in motion.sample(env.motion, 0, t))
+        action = rng.uniform(-0.1, 0.1, env.action_size)
+        obs0 = cpu_env.reset_at(t)
+        np.testing.assert_allclose(obs0, np.asarray(mjx_fns[0](jax.random.PRNGKey(0), jnp.float32(t)).obs), atol=1e-5)
+        ok["flag"] = True
+        nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, action)
+        assert bool(nxt.done) == step.done
+        if not ok["flag"]:
+            continue
+        compared += 1
+        np.testing.assert_allclose(step.obs, np.asarray(nxt.obs), atol=1e-3)
+        assert step.reward == pytest.approx(float(nxt.reward), abs=1e-4)
+    assert compared >= 3, compared
+
+
+def test_fall_detection_matches(env, cpu_env, mjx_fns):
+    t = 0.2
+    qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.motion, 0, t))
+    qpos[2] = 0.08  # lying face down: chest on the floor
+    qpos[3:7] = quat.from_rotvec(np.array([0.0, np.pi / 2, 0.0]))
+    nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, np.zeros(env.action_size))
+    assert step.fell and step.done and step.reward == 0.0
+    assert bool(nxt.metrics["fell"]) and bool(nxt.done)
+
+
+# ------------------------------------------------------------------------------ policy parity
+
+
+@pytest.mark.parametrize("hidden", [(64, 64), (1024, 512)])
+def test_numpy_policy_matches_the_jax_policy(hidden):
+    obs_size, act_size = 227, 28
+    cfg = config_lib.make_config("cpu", {"ppo.policy_hidden": ",".join(map(str, hidden))})
+    networks = make_networks(obs_size, act_size, cfg)
+    rng = np.random.default_rng(3)
+    raw = networks.policy_network.init(jax.random.PRNGKey(3))
+    # Brax's initial weights (lecun uniform), random biases and normaliser; observations drawn
+    # from the normaliser's own statistics, so the network sees what training feeds it.
+    policy = {name: {"kernel": np.asarray(layer["kernel"]),
+                     "bias": rng.normal(scale=0.1, size=np.shape(layer["bias"])).astype(np.float32)}
+              for name, layer in raw["params"].items()}
+    mean = rng.normal(size=obs_size).astype(np.float32)
+    std = rng.uniform(0.2, 3.0, size=obs_size).astype(np.float32)
+    params = {"normalizer": {"mean": mean, "std": std}, "policy": policy}
+    obs = (mean + std * rng.normal(scale=1.5, size=(256, obs_size))).astype(np.float32)
+    jax_action = np.asarray(jax.jit(make_policy_fn(networks, params, deterministic=True))(
+        jnp.asarray(obs), jax.random.PRNGKey(0)))
+    np_action = NumpyPolicy.from_params(params)(obs)
+    assert np_action.shape == jax_action.shape == (256, act_size)
+    assert np.abs(np_action).max() > 0.5 and np.abs(np_action).min() < 0.05  # tanh over its range
+    assert np.max(np.abs(np_action - jax_action)) <= 1e-5
+    single = NumpyPolicy.from_params(params)(obs[0])
+    np.testing.assert_allclose(single, np_action[0], atol=1e-12)
+
+
+# ------------------------------------------------------------------------------------- export
+
+
+def test_export_reads_the_checkpoint_like_export_params(run):
+    params, meta = export.params_from_run(run["dir"])
+    want = run["params"]
+    for k in ("mean", "std"):
+        np.testing.assert_array_equal(params["normalizer"][k], want["normalizer"][k])
+    assert sorted(params["policy"]) == sorted(want["policy"])
+    for name, layer in want["policy"].items():
+        for k in ("kernel", "bias"):
+            np.testing.assert_array_equal(params["policy"][name][k], layer[k])
+    assert meta["checkpoint"] == 1234
+
+
+def test_export_round_trip(run, policy_file, config, env):
+    pf = export.read(policy_file)
+    assert policy_file == run["dir"] / "policy.npz"
+    m = pf.manifest
+    assert m["format"] == "mjxmimic-policy" and m["format_version"] == 1
+    assert m["character"]["file"] == "humanoid.xml"
+    assert m["character"]["sha256"] == env.character.sha256()
+    assert pf.character_xml == env.character.xml_path.read_text()
+    assert m["clip"]["name"] == config.clip.name and m["clip"]["loop"] is True
+    assert m["control"]["physics_hz"] == 120 and m["control"]["substeps"] == 4
+    assert m["control"]["control_hz"] == 30 and m["control"]["action_mode"] == "absolute"
+    assert m["observation"]["size"] == env.observation_size == sum(p["size"] for p in m["observation"]["layout"])
+    assert [j["name"] for j in m["character"]["joints"]] == [j.name for j in env.character.joints]
+    assert [j["kp"] for j in m["character"]["joints"]] == [j.kp for j in env.character.joints]
+    assert m["policy"]["hidden_sizes"] == [64, 64]
+    assert m["training"]["checkpoint"] == 1234 and m["training"]["eval"]["episodes"] == 4
+    np.testing.assert_allclose(m["training"]["eval"]["start_times"], run["starts"])
+    assert pf.config() == config
+    # every array survives bit for bit
+    want = run["params"]
+    for k in ("mean", "std"):
+        np.testing.assert_array_equal(pf.params["normalizer"][k], want["normalizer"][k])
+    for name, layer in want["policy"].items():
+        for k in ("kernel", "bias"):
+            np.testing.assert_array_equal(pf.params["policy"][name][k], layer[k])
+    clip = env.clips[0]
+    np.testing.assert_array_equal(pf.clip_qpos, clip.qpos)
+    np.testing.assert_array_equal(pf.clip_durations, clip.durations)
+    assert set(m["arrays"]) == set(pf.arrays())
+    # and writing what was read gives the same file contents
+    again = export.read(export.write_npz(pf, policy_file.parent / "again.npz"))
+    assert again.manifest == pf.manifest
+    for key, value in pf.arrays().items():
+        np.testing.assert_array_equal(again.arrays()[key], value)
+    # the embedded character and clip are the run's
+    character = pf.character()
+    assert character.model.nq == env.character.model.nq and character.sha256() == env.character.sha256()
+    assert pf.clip().loop == clip.loop and pf.clip().name == clip.name
+
+
+def test_onnx_export_runs_the_same_function(run, tmp_path):
+    onnx = pytest.importorskip("onnx")
+    from onnx.reference import ReferenceEvaluator
+
+    out, pf = export.export_run(run["dir"], tmp_path / "policy.onnx", fmt="onnx")
+    model = onnx.load(str(out))
+    obs = np.random.default_rng(4).normal(size=(16, 227)).astype(np.float32)
+    (action,) = ReferenceEvaluator(model).run(None, {"obs": obs})
+    np.testing.assert_allclose(action, pf.policy()(obs), atol=1e-5)
+    back = export.read(out)
+    assert back.manifest == pf.manifest
+    for key, value in pf.arrays().items():
+        np.testing.assert_array_equal(back.arrays()[key], value)
+
+
+def test_mjx_start_times_are_those_of_mjxmimic_evaluate():
+    sys.path.insert(0, str(Path(__file__).parent))
+    from standin_env import StandInEnv
+
+    from mjxmimic.evaluate import _rollout
+
+    standin = StandInEnv(clip_duration=1.7)
+    policy = lambda obs, key: jnp.zeros(obs.shape[:-1] + (standin.action_size,))
+    acc = jax.jit(lambda k: _rollout(standin, policy, k, 8))(jax.random.PRNGKey(11))
+    np.testing.assert_array_equal(np.asarray(acc["start_time"], np.float32),
+                                  export.mjx_eval_start_times(11, 8, 1.7))
+
+
+def test_export_errors_are_one_line(tmp_path, capsys):
+    assert cli_main(["export", str(tmp_path / "missing")]) == 2
+    assert cli_main(["play", str(tmp_path / "missing.npz")]) == 2
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    assert cli_main(["play", str(tmp_path / "junk.npz")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and all(line.startswith("mjxmimic ") and "error:" in line for line in err), err
+
+
+# ------------------------------------------------------------------------------------ playback
+
+
+def _run_play(*args, env_vars=None):
+    """`mjxmimic play ...` in a fresh interpreter that reports whether JAX was imported."""
+    code = ("import sys; from mjxmimic.cli import main; rc = main(sys.argv[1:]); "
+            "print('JAX_IMPORTED=' + str(any(m == 'jax' or m.startswith('jax.') for m in sys.modules)), "
+            "file=sys.stderr); sys.exit(rc)")
+    env = dict(os.environ, **(env_vars or {}))
+    return subprocess.run([sys.executable, "-c", code, "play", *map(str, args)], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=120, check=False)
+
+
+def test_play_cli_reports_nr_and_ratio_without_importing_jax(policy_file):
+    result = _run_play(policy_file, "--episodes", "4", "--json")
+    assert result.returncode == 0, result.stderr
+    assert "JAX_IMPORTED=False" in result.stderr, result.stderr
+    out = json.loads(result.stdout)
+    assert 0.0 <= out["nr"] <= 1.0 and out["episodes"] == 4
+    assert out["mjx_nr"] > 0 and out["ratio"] == pytest.approx(out["nr"] / out["mjx_nr"])
+    assert out["starts"].startswith("the MJX evaluation's")
+    for key in ("fall_rate", "survival_s", "pose_error_rad", "end_effector_error_m", "steps_per_s"):
+        assert key in out
+
+
+def test_play_text_output_and_run_folder(run, policy_file, capsys):
+    assert cli_main(["play", str(run["dir"]), "--episodes", "2", "--seed", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "sim-to-sim NR (CPU)" in out and "ratio CPU / MJX" in out and "seed 5" in out
+
+
+def test_viewer_without_a_display_is_a_clear_error(policy_file):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run([sys.executable, "-m", "mjxmimic.cli", "play", str(policy_file), "--viewer"],
+                            cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--viewer needs a display" in lines[0], result.stderr
+
+
+def test_sim_to_sim_nr_on_the_same_starts(run, policy_file):
+    """The exported file, played on MuJoCo C from the MJX evaluation's start times, scores about
+    what the (randomised) policy scored on MJX. Only a coarse check: this policy falls within
+    ~0.6 s, and MJX's plane-box contacts (see the ground parity test) shift fall times by a few
+    steps; exactness is what the parity tests above prove."""
+    pf = export.read(policy_file)
+    cpu = CpuEpisode(pf.config(), pf.character(), pf.clip())
+    result = evaluate(cpu, pf.policy(), pf.manifest["training"]["eval"]["start_times"])
+    np.testing.assert_allclose(result["start_times"], run["starts"])
+    per_mjx = run["mjx_per_episode"]
+    assert np.all(per_mjx > 0) and np.all(np.array(result["per_episode_nr"]) > 0)
+    assert 0.7 < result["nr"] / per_mjx.mean() < 1.4, (result["per_episode_nr"], per_mjx)
+
+
+def test_cpu_episode_counts_like_the_evaluation(cpu_env):
+    """Reference-tracking actions on a looping clip: the horizon is 600 steps whatever the time
+    limit, NR is reward / horizon, a fall ends the episode and scores 0 after it."""
+    assert cpu_env.eval_horizon(0.3) == 600 == cpu_env.max_eval_horizon
+    zero = lambda obs: np.zeros(cpu_env.character.action_size)
+    ep = cpu_env.episode(zero, 0.3)
+    assert ep["failed"] and ep["steps"] < 600  # absolute zero targets: the humanoid falls
+    assert ep["nr"] == pytest.approx(ep["reward"] / 600)

@@ -1,0 +1,120 @@
+"""Headless videos: `mjxmimic render` (policy + ghost) and `mjxmimic clips render` write mp4 files
+whose frames change; the ghost is drawn. Skipped, with the reason, where imageio/imageio-ffmpeg
+(the "render" extra) or a headless OpenGL (EGL or OSMesa) is missing."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjxmimic import config as config_lib
+from mjxmimic.errors import UserError
+
+REPO = Path(__file__).resolve().parent.parent
+
+imageio = pytest.importorskip("imageio.v2", reason="the render extra (imageio) is not installed")
+pytest.importorskip("imageio_ffmpeg", reason="the render extra (imageio-ffmpeg) is not installed")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def gl():
+    from mjxmimic.render import setup_gl
+
+    try:
+        return setup_gl()
+    except UserError as err:
+        pytest.skip(f"no headless OpenGL: {err}")
+
+
+@pytest.fixture(scope="module")
+def policy_file(tmp_path_factory, character):
+    """An exported policy of random weights (numpy only: no training, no JAX)."""
+    from mjxmimic.clip import load_clip_source
+    from mjxmimic.export import make_policy_file, write_npz
+
+    rng = np.random.default_rng(0)
+    sizes = [227, 32, 32, 56]
+    policy = {f"hidden_{i}": {"kernel": rng.normal(scale=1 / np.sqrt(a), size=(a, b)).astype(np.float32),
+                              "bias": np.zeros(b, np.float32)} for i, (a, b) in enumerate(zip(sizes, sizes[1:]))}
+    params = {"normalizer": {"mean": np.zeros(227, np.float32), "std": np.ones(227, np.float32)}, "policy": policy}
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.action_scale": 0.2})
+    pf = make_policy_file(config, character, load_clip_source("slow_walk", character), params)
+    return write_npz(pf, tmp_path_factory.mktemp("policy") / "policy.npz")
+
+
+def run_cli(*args) -> subprocess.CompletedProcess:
+    code = ("import sys; from mjxmimic.cli import main; rc = main(sys.argv[1:]); "
+            "print('JAX_IMPORTED=' + str('jax' in sys.modules), file=sys.stderr); sys.exit(rc)")
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}  # render.py chooses
+    return subprocess.run([sys.executable, "-c", code, *map(str, args)], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=180, check=False)
+
+
+def read_frames(path: Path) -> list[np.ndarray]:
+    with imageio.get_reader(str(path)) as reader:
+        return [np.asarray(f) for f in reader]
+
+
+def test_render_policy_with_ghost_writes_a_changing_video(policy_file, tmp_path):
+    out = tmp_path / "policy.mp4"
+    result = run_cli("render", policy_file, "--out", out, "--ghost", "--seconds", "1", "--width", "160",
+                     "--height", "128")
+    assert result.returncode == 0, result.stderr
+    assert "JAX_IMPORTED=False" in result.stderr
+    assert out.is_file() and not list(tmp_path.glob("*.part*"))
+    frames = read_frames(out)
+    assert len(frames) >= 5 and frames[0].shape == (128, 160, 3)
+    diffs = [np.abs(f.astype(int) - frames[0].astype(int)).mean() for f in frames[1:]]
+    assert max(diffs) > 1.0, diffs  # the character moves
+
+
+def test_clips_render_writes_a_changing_video(tmp_path):
+    out = tmp_path / "squat.mp4"
+    result = run_cli("clips", "render", "squat", "--out", out, "--seconds", "1.5", "--width", "160",
+                     "--height", "128")
+    assert result.returncode == 0, result.stderr
+    frames = read_frames(out)
+    assert len(frames) == 46  # 1.5 s at 30 fps, both ends
+    assert np.abs(frames[-1].astype(int) - frames[0].astype(int)).mean() > 0.5 or \
+        np.abs(frames[len(frames) // 2].astype(int) - frames[0].astype(int)).mean() > 0.5
+
+
+def test_ghost_is_drawn_translucent(character):
+    from mjxmimic import motion
+    from mjxmimic.clip import load_clip_source
+    from mjxmimic.render import GHOST_PREFIX, Scene
+
+    lib = motion.build_motion_lib([load_clip_source("slow_walk", character)], character)
+    qpos, _ = motion.sample(lib, 0, 0.3)
+    plain = Scene(character.xml_path, character.nq, ghost=False, width=160, height=128)
+    ghosted = Scene(character.xml_path, character.nq, ghost=True, width=160, height=128)
+    try:
+        assert ghosted.model.nq == 2 * character.nq and plain.model.nq == character.nq
+        names = [ghosted.model.geom(i).name for i in range(ghosted.model.ngeom)]
+        ghost_geoms = [i for i, n in enumerate(names) if n.startswith(GHOST_PREFIX)]
+        assert len(ghost_geoms) == character.model.ngeom - 1  # every body geom, not the floor
+        assert np.all(ghosted.model.geom_rgba[ghost_geoms, 3] < 0.5)
+        assert np.all(ghosted.model.geom_contype[ghost_geoms] == 0)
+        assert np.all(ghosted.model.geom_conaffinity[ghost_geoms] == 0)
+        shifted = np.array(qpos, np.float64)
+        shifted[0] += 0.6  # the ghost a little ahead (the camera looks from the side)
+        a = plain.frame(qpos)
+        b = ghosted.frame(qpos, shifted)
+        assert a.shape == b.shape == (128, 160, 3)
+        assert np.abs(a.astype(int) - b.astype(int)).mean() > 0.3
+    finally:
+        plain.close()
+        ghosted.close()
+
+
+def test_bad_output_name_and_size_are_one_line_errors(policy_file, tmp_path):
+    result = run_cli("render", policy_file, "--out", tmp_path / "x.gif")
+    assert result.returncode == 2 and "expected a video file name ending in .mp4" in result.stderr
+    result = run_cli("clips", "render", "squat", "--width", "100", "--out", tmp_path / "y.mp4")
+    assert result.returncode == 2 and "multiple of 16" in result.stderr
+    assert not (tmp_path / "x.gif").exists() and not (tmp_path / "y.mp4").exists()
