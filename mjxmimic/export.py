@@ -190,7 +190,7 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "mjxmimic_version": __version__,
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "character": {
             "file": character.xml_path.name,
             "sha256": _sha256(character_xml),

@@ -16,7 +16,8 @@ it against the JAX policy to 1e-5.
 from __future__ import annotations
 
 import re
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -46,7 +47,7 @@ class NumpyPolicy:
                 raise ValueError(f"layer sizes do not chain: {k0.shape} then {k1.shape}")
 
     @classmethod
-    def from_params(cls, params: Mapping[str, Any]) -> "NumpyPolicy":
+    def from_params(cls, params: Mapping[str, Any]) -> NumpyPolicy:
         """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}."""
         policy = params["policy"]
         names = sorted((int(_LAYER.match(n).group(1)), n) for n in policy if _LAYER.match(n))

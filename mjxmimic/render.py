@@ -17,8 +17,9 @@ from __future__ import annotations
 import ctypes.util
 import os
 import sys
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -62,6 +63,8 @@ def setup_gl() -> str:
     imported with a window backend, switches its GLContext class to the headless one.
     """
     want = os.environ.get("MUJOCO_GL", "").lower().strip()
+    if not sys.platform.startswith("linux"):
+        return want  # macOS (CGL) and Windows (WGL) render offscreen without a choice to make
     if want in ("", "glfw", "enable", "enabled", "on", "true", "1") and not (want and _has_display()):
         want = default_backend()
         os.environ["MUJOCO_GL"] = want
@@ -200,7 +203,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     character = pf.character()
     env = CpuEpisode(pf.config(), character, clip if clip is not None else pf.clip())
     policy = pf.policy()
-    limit = env.max_steps if seconds is None else max(1, int(round(seconds / env.control_dt)))
+    limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     scene = Scene(pf.character_xml, character.nq, ghost, width, height)
     info: dict[str, Any] = {"steps": 0, "fell": False, "reward": 0.0}
 

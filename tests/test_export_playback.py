@@ -129,8 +129,7 @@ def run(tmp_path_factory, env, config, reset_at, transition):
 
 @pytest.fixture(scope="module")
 def policy_file(run):
-    out, pf = export.export_run(run["dir"])
-    return out
+    return export.export_run(run["dir"])[0]
 
 
 # ------------------------------------------------------------------------- observation parity

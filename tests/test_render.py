@@ -4,6 +4,7 @@ whose frames change; the ghost is drawn. Skipped, with the reason, where imageio
 
 from __future__ import annotations
 
+import itertools
 import os
 import subprocess
 import sys
@@ -40,7 +41,7 @@ def policy_file(tmp_path_factory, character):
     rng = np.random.default_rng(0)
     sizes = [227, 32, 32, 56]
     policy = {f"hidden_{i}": {"kernel": rng.normal(scale=1 / np.sqrt(a), size=(a, b)).astype(np.float32),
-                              "bias": np.zeros(b, np.float32)} for i, (a, b) in enumerate(zip(sizes, sizes[1:]))}
+                              "bias": np.zeros(b, np.float32)} for i, (a, b) in enumerate(itertools.pairwise(sizes))}
     params = {"normalizer": {"mean": np.zeros(227, np.float32), "std": np.ones(227, np.float32)}, "policy": policy}
     config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.action_scale": 0.2})
     pf = make_policy_file(config, character, load_clip_source("slow_walk", character), params)

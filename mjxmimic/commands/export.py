@@ -29,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
     if fmt is None:
         fmt = "onnx" if args.out is not None and args.out.suffix == ".onnx" else "npz"
     if args.out is not None and args.out.suffix not in (f".{fmt}",):
-        raise UserError(f"--out {args.out}: a {fmt} file should end in .{fmt}")
+        raise UserError(f"--out {args.out}: the file name of a {fmt} export must end in .{fmt}")
     out, pf = export_run(args.run_dir, args.out, fmt)
     if args.json:
         print(json.dumps(dict(pf.manifest, file=str(out)), indent=1))

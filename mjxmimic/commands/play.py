@@ -125,8 +125,8 @@ def run(args: argparse.Namespace) -> int:
         ("pose error (rad)", f"{out['pose_error_rad']:.4f}"),
         ("end-effector error (m)", f"{out['end_effector_error_m']:.4f}"),
         ("episodes", f"{out['episodes']}, start times: {label}"),
-        ("speed", f"{out['control_steps']:,} control steps in {out['eval_seconds']:.1f} s "
-                  f"({out['steps_per_s']:,.0f}/s)"),
+        ("speed", (f"{out['control_steps']:,} control steps in {out['eval_seconds']:.1f} s "
+                   f"({out['steps_per_s']:,.0f}/s)")),
     ]
     width = max(len(k) for k, _ in rows)
     print(f"{pf.path} on {clip.name}, {out['simulator']}, {env.config.env.physics_hz} Hz physics")
