@@ -100,8 +100,13 @@ PRESETS: dict[str, dict[str, Any]] = {
         "run.checkpoint_every": 10_000,
         "run.eval_episodes": 16,
     },
-    # The real thing, on one GPU.
-    "gpu": {},
+    # The real thing, on one GPU: 240 Hz physics with 4 Newton iterations (benchmarks/RESULTS.md).
+    "gpu": {
+        "ppo.num_envs": 4096,
+        "ppo.unroll_length": 32,
+        "run.eval_every": 5_000_000,
+        "run.checkpoint_every": 10_000_000,
+    },
 }
 
 

@@ -380,7 +380,7 @@ def sole_heights(character, qpos: np.ndarray, corner: int = 0) -> np.ndarray:
     which is on the floor only when the sole is flat), straight from mujoco kinematics."""
     model, data = character.model, mujoco.MjData(character.model)
     feet = character.body_sets["feet"]
-    boxes = [g for g in range(model.ngeom) if model.geom_bodyid[g] in feet]
+    boxes = [g for g in range(model.ngeom) if model.geom_bodyid[g] in feet and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
     assert len(boxes) == 2 and all(model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in boxes)
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     out = np.empty((len(qpos), 2))
