@@ -4,7 +4,10 @@ brax 0.14.2 (the newest release) was written against a JAX that still had
 `jax.device_put_replicated`; JAX removed it in 0.10 (the CPU machines run jax 0.10.x, the GPU
 machine 0.11.2). `patch_jax_for_brax()` installs a faithful replacement, built on
 `jax.device_put` with a `NamedSharding` over the given devices, but only when JAX lacks the
-function, so on an older JAX nothing changes. `mjxmimic.ppo` calls it at import.
+function, so on an older JAX nothing changes. A second, unrelated JAX problem, a deadlock of
+batched LAPACK calls on jaxlib 0.10.x CPU that hangs MJX training, is fixed by
+`patch_jax_cpu_lapack_deadlock()` (see its docstring). `patch_all()` applies both;
+`mjxmimic.ppo` calls it at import.
 
 Semantics of the old function (and of the replacement): `device_put_replicated(x, devices)` maps
 over the pytree `x`; each leaf of shape S becomes one array of shape (len(devices), *S) whose
@@ -60,6 +63,37 @@ def device_put_replicated(x: Any, devices: Sequence[jax.Device]) -> Any:
     return jax.tree_util.tree_map(put, x)
 
 
+def patch_jax_cpu_lapack_deadlock() -> bool:
+    """jaxlib 0.10.x CPU: lower Cholesky and triangular solves to XLA's own HLO ops, not LAPACK.
+
+    In jaxlib 0.10.x every batched LAPACK FFI kernel (potrf, trsm, getrf, geqrf, syevd, gesdd,
+    ...) splits its batch with `ParallelBatchMap` onto XLA:CPU's intra-op thread pool and blocks
+    until the pieces finish. When the thunk executor runs as many such kernels concurrently as
+    the pool has threads (the pool is sized from the CPU affinity: 2 threads on the 2-core
+    machines), every pool thread blocks waiting for sub-tasks that no thread is free to run:
+    the process hangs at 0% CPU. MJX's Newton solver (Cholesky + cho_solve under vmap) hits it
+    within a few PPO iterations (seen: gdb shows both "tf_XLAEigen" threads in
+    `lapack_spotrf_ffi -> CholeskyFactorization -> ParallelBatchMap -> BlockingCounter::Wait`).
+    jaxlib 0.11 compiles that parallel path out of open-source builds, so this patch is applied
+    only for jaxlib < 0.11, and only to the CPU lowering (GPU lowerings are untouched). The HLO
+    `cholesky` / `triangular_solve` ops are expanded by XLA into plain loops (no custom call, no
+    thread pool); they are slower per call than LAPACK for large matrices but fine for MJX's
+    ~35 x 35 systems. Must run before the first jit that uses them (mjxmimic.ppo calls it at
+    import). Returns True if it patched.
+    """
+    import jaxlib
+
+    major_minor = tuple(int(p) for p in jaxlib.__version__.split(".")[:2])
+    if major_minor >= (0, 11):
+        return False
+    from jax._src.interpreters import mlir
+    from jax._src.lax import linalg
+
+    mlir.register_lowering(linalg.cholesky_p, linalg._cholesky_lowering, platform="cpu")
+    mlir.register_lowering(linalg.triangular_solve_p, linalg._triangular_solve_lowering, platform="cpu")
+    return True
+
+
 def patch_jax_for_brax() -> bool:
     """Install `device_put_replicated` on `jax` if this JAX lacks it. Returns True if it patched.
 
@@ -69,3 +103,9 @@ def patch_jax_for_brax() -> bool:
         return False
     jax.device_put_replicated = device_put_replicated
     return True
+
+
+def patch_all() -> dict[str, bool]:
+    """Every patch of this module (each one a no-op where JAX does not need it)."""
+    return {"device_put_replicated": patch_jax_for_brax(),
+            "cpu_lapack_deadlock": patch_jax_cpu_lapack_deadlock()}

@@ -58,9 +58,9 @@ import numpy as np
 import optax
 from flax import linen
 
-from mjxmimic.compat import patch_jax_for_brax
+from mjxmimic.compat import patch_all
 
-patch_jax_for_brax()
+patch_all()  # jax.device_put_replicated for brax; the jaxlib 0.10 CPU LAPACK deadlock
 
 from brax.training import acting, gradients  # noqa: E402
 from brax.training import types as brax_types  # noqa: E402
