@@ -1,0 +1,118 @@
+"""The NR protocol (mjxmimic.evaluate) on the stand-in env, where the right answers are known."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjxmimic import cli
+from mjxmimic.config import make_config
+from mjxmimic.evaluate import Evaluator, evaluate
+from standin_env import StandInEnv
+
+CONFIG = make_config("cpu", {"run.eval_episodes": 8})
+
+
+def perfect_policy(env):
+    n = env.n
+
+    def policy(obs, key):  # x' = x + (a - x)/2 = ref(t + dt)  =>  a = 2 ref(t + dt) - x
+        x, ref_next = obs[..., :n], obs[..., 2 * n:3 * n]
+        return jnp.clip(2 * ref_next - x, -1.0, 1.0)
+
+    return policy
+
+
+def zero_policy(obs, key):
+    return jnp.zeros(obs.shape[:-1] + (4,))
+
+
+def test_perfect_tracking_scores_one_on_a_looping_clip():
+    env = StandInEnv()
+    out = evaluate(env, perfect_policy(env), CONFIG, seed=0, samples=123, train_seconds=4.5)
+    assert out["nr"] == pytest.approx(1.0, abs=1e-4)
+    assert out["fall_rate"] == 0.0
+    assert out["survival_s"] == pytest.approx(20.0, abs=1e-6)  # 600 steps, beyond the env's own time limit
+    assert out["mean_horizon_steps"] == 600
+    assert out["pose_error_rad"] < 1e-4
+    assert out["episodes"] == 8
+    assert out["samples"] == 123 and out["train_seconds"] == 4.5
+
+
+def test_fall_ends_the_episode_and_remaining_steps_count_zero():
+    env = StandInEnv()
+    out = evaluate(env, zero_policy, CONFIG, seed=0)
+    assert out["fall_rate"] == 1.0
+    assert out["survival_s"] < 20.0
+    # every step after the fall counts 0: NR <= fraction of the horizon survived
+    assert 0.0 < out["nr"] <= out["survival_s"] / 20.0 + 1e-6
+
+
+def test_non_looping_clip_runs_to_the_clip_end():
+    env = StandInEnv(looping=False, clip_duration=2.0)
+    out = evaluate(env, perfect_policy(env), CONFIG, seed=1)
+    assert out["nr"] == pytest.approx(1.0, abs=1e-4)  # the clip's end is not a fall
+    assert out["fall_rate"] == 0.0
+    assert 0 < out["mean_horizon_steps"] <= 60
+    assert out["survival_s"] == pytest.approx(out["mean_horizon_steps"] / 30.0, rel=1e-5)
+
+
+def test_nr_is_mean_of_per_episode_return_over_horizon():
+    """Reproduce NR by hand with a plain Python loop over one episode at a time."""
+    env = StandInEnv(looping=False, clip_duration=1.0)
+
+    def half(obs, key):  # a policy that tracks badly but mostly survives for a while
+        return 0.5 * perfect_policy(env)(obs, key)
+
+    out = evaluate(env, half, CONFIG, seed=3)
+    key = jax.random.PRNGKey(3)
+    k_time, k_reset, _ = jax.random.split(key, 3)
+    n = CONFIG.run.eval_episodes
+    t0 = jax.random.uniform(k_time, (n,), minval=0.0, maxval=env.clip_duration)
+    resets = jax.random.split(k_reset, n)
+    nrs = []
+    for i in range(n):
+        state = env.reset_at(resets[i], t0[i])
+        horizon = max(int(env.eval_horizon(t0[i])), 1)
+        total = 0.0
+        for _ in range(horizon):
+            state = env.transition(state, half(state.obs, None))
+            total += float(state.reward)
+            if float(state.metrics["fell"]) > 0:
+                break
+        nrs.append(total / horizon)
+    assert out["nr"] == pytest.approx(float(np.mean(nrs)), abs=1e-5)
+
+
+def test_evaluator_matches_evaluate_and_compiles_once():
+    from mjxmimic.ppo import export_params, make_trainer
+
+    env = StandInEnv()
+    trainer = make_trainer(env, CONFIG)
+    ts = trainer.init(0)
+    params = export_params(ts)
+    evaluator = Evaluator(env, CONFIG, trainer.make_policy)
+    a = evaluator(params, seed=5)
+    b = evaluate(env, trainer.make_policy(params, True), CONFIG, seed=5)
+    for key in ("nr", "fall_rate", "survival_s", "pose_error_rad"):
+        assert a[key] == pytest.approx(b[key], rel=1e-5, abs=1e-7)
+    params2 = jax.tree_util.tree_map(lambda x: x * 1.01, params)
+    evaluator(params2, seed=6)
+    assert evaluator._run._cache_size() == 1
+
+
+def test_eval_cli_missing_run_folder(tmp_path, capsys):
+    code = cli.main(["eval", str(tmp_path / "nope")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and "run folder not found" in err
+
+
+def test_eval_cli_folder_without_checkpoint(tmp_path, capsys):
+    from mjxmimic import config as config_lib
+
+    config_lib.save(CONFIG, tmp_path / "config.json")
+    code = cli.main(["eval", str(tmp_path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and "no checkpoint" in err

@@ -1,0 +1,141 @@
+"""mjxmimic.ppo: the train step, the initial std, the exported policy, the multi-device path."""
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjxmimic.config import make_config
+from mjxmimic.errors import UserError
+from mjxmimic.ppo import MIN_STD, export_params, make_trainer
+from standin_env import StandInEnv
+
+REPO = Path(__file__).resolve().parent.parent
+CONFIG = make_config("cpu", {"ppo.init_action_std": 0.3})
+
+
+@pytest.fixture(scope="module")
+def trainer():
+    return make_trainer(StandInEnv(), CONFIG)
+
+
+def _numpy_policy(params, obs, action_size):
+    """The documented forward pass, written out in numpy."""
+    h = (np.asarray(obs) - np.asarray(params["normalizer"]["mean"])) / np.asarray(params["normalizer"]["std"])
+    layers = params["policy"]
+    n = len(layers)
+    for i in range(n):
+        h = h @ np.asarray(layers[f"hidden_{i}"]["kernel"]) + np.asarray(layers[f"hidden_{i}"]["bias"])
+        if i < n - 1:
+            h = np.maximum(h, 0.0)
+    return h[..., :action_size], h[..., action_size:]
+
+
+def test_initial_std_and_exported_layout(trainer):
+    ts = trainer.init(0)
+    params = export_params(ts)
+    env = trainer.env
+    assert set(params) == {"normalizer", "policy"}
+    assert params["normalizer"]["mean"].shape == (env.observation_size,)
+    assert sorted(params["policy"]) == ["hidden_0", "hidden_1", "hidden_2"]
+    assert params["policy"]["hidden_0"]["kernel"].shape == (env.observation_size, 64)
+    assert params["policy"]["hidden_2"]["kernel"].shape == (64, 2 * env.action_size)
+
+    obs = jax.random.normal(jax.random.PRNGKey(1), (16, env.observation_size)) * 3
+    loc, s = _numpy_policy(params, obs, env.action_size)
+    std = np.log1p(np.exp(s)) + MIN_STD
+    np.testing.assert_allclose(std, 0.3, rtol=1e-5)  # every state starts with ppo.init_action_std
+    assert np.abs(loc).max() < 0.1  # small initial mean (0.01-scaled output layer)
+
+    act = trainer.make_policy(params, deterministic=True)(obs, jax.random.PRNGKey(0))
+    np.testing.assert_allclose(np.asarray(act), np.tanh(loc), atol=1e-6)
+    noisy = trainer.make_policy(params, deterministic=False)(obs, jax.random.PRNGKey(0))
+    assert np.all(np.abs(np.asarray(noisy)) <= 1.0)
+    # tanh(loc + std * eps): the pre-tanh spread is the initial std
+    pre = np.arctanh(np.clip(np.asarray(noisy), -0.999999, 0.999999)) - loc
+    assert 0.2 < pre.std() < 0.4
+
+
+def test_train_step_learns_without_recompiling(trainer):
+    ts = trainer.init(0)
+    rewards = []
+    for _ in range(30):
+        ts, metrics = trainer.train_step(ts)
+        rewards.append(float(metrics["reward"]))
+    assert trainer.train_step._cache_size() == 1  # one compilation for all iterations
+    assert int(ts.env_steps) == 30 * CONFIG.ppo.num_envs * CONFIG.ppo.unroll_length
+    for key in ("reward", "reward/track", "error/pose", "done_rate", "fall_rate", "ppo/policy_loss",
+                "ppo/v_loss", "ppo/total_loss", "policy/std"):
+        assert np.isfinite(float(metrics[key])), key
+    assert np.mean(rewards[-5:]) > np.mean(rewards[:5]) + 0.3  # the stand-in is easy
+    assert float(metrics["fall_rate"]) < float(np.mean(rewards[:1]))
+
+
+def test_donates_the_input_state(trainer):
+    ts = trainer.init(1)
+    leaf = ts.params.policy["params"]["hidden_0"]["kernel"]
+    new, _ = trainer.train_step(ts)
+    jax.block_until_ready(new)
+    assert leaf.is_deleted()
+
+
+def test_rsi_draws_fresh_start_times_on_every_reset(trainer):
+    ts = trainer.init(2)
+    t0 = np.asarray(ts.env_state.info["t"])
+    assert len(np.unique(np.round(t0, 5))) == len(t0)
+    ts2 = trainer.init(3)
+    assert not np.allclose(np.asarray(ts2.env_state.info["t"]), t0)
+
+
+def test_config_errors_are_one_line():
+    with pytest.raises(UserError, match="init_action_std"):
+        make_trainer(StandInEnv(), make_config("cpu", {"ppo.init_action_std": 0.0005}))
+
+
+def test_two_devices_shard_the_batch_and_all_reduce():
+    script = textwrap.dedent("""
+        import sys
+        sys.path.insert(0, "tests")
+        import jax, numpy as np
+        from mjxmimic.config import make_config
+        from mjxmimic.errors import UserError
+        from mjxmimic.ppo import make_trainer
+        from standin_env import StandInEnv
+        assert jax.local_device_count() == 2
+        try:
+            make_trainer(StandInEnv(), make_config("cpu", {"ppo.num_envs": 33, "ppo.num_minibatches": 1}))
+            raise SystemExit("no error for 33 envs on 2 devices")
+        except UserError as err:
+            assert "ppo.num_envs" in str(err) and "2 local devices" in str(err), err
+        config = make_config("cpu")
+        trainer = make_trainer(StandInEnv(), config)
+        ts = trainer.init(0)
+        leaf = ts.env_state.obs
+        shards = leaf.addressable_shards
+        assert len({s.device for s in shards}) == 2 and shards[0].data.shape[0] == 16, leaf.sharding
+        hlo = trainer.train_step.lower(ts).compile().as_text()
+        assert "all-reduce" in hlo
+        rewards = []
+        for _ in range(25):
+            ts, m = trainer.train_step(ts)
+            rewards.append(float(m["reward"]))
+        assert trainer.train_step._cache_size() == 1
+        kernel = ts.params.policy["params"]["hidden_0"]["kernel"]
+        a, b = [np.asarray(s.data) for s in kernel.addressable_shards]
+        np.testing.assert_array_equal(a, b)  # parameters stay replicated
+        assert ts.env_state.obs.addressable_shards[0].data.shape[0] == 16  # batch stays sharded
+        assert np.mean(rewards[-5:]) > np.mean(rewards[:5]) + 0.3, rewards
+        print("OK", int(ts.env_steps))
+    """)
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu",
+               PYTHONPATH=str(REPO))
+    proc = subprocess.run([sys.executable, "-c", script], env=env, cwd=REPO, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    assert "OK 12800" in proc.stdout
