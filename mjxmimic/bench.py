@@ -158,3 +158,23 @@ def tracking(env: ImitationEnv, num_envs: int, seconds: float = 4.0, seed: int =
 def with_settings(config: Config, physics_hz: int, iterations: int, ls_iterations: int) -> Config:
     return apply_overrides(config, {"env.physics_hz": physics_hz, "env.solver_iterations": iterations,
                                     "env.ls_iterations": ls_iterations})
+
+
+def train_loop(env: ImitationEnv, config: Config, iterations: int = 5) -> Measurement:
+    """Samples/s of the full PPO iteration (rollout, reward, resets, GAE, updates), steady state."""
+    from mjxmimic.ppo import make_trainer
+
+    trainer = make_trainer(env, config)
+    state = trainer.init(0)
+    start = time.perf_counter()
+    state, metrics = trainer.train_step(state)
+    jax.block_until_ready(metrics)
+    compile_s = time.perf_counter() - start
+    times = []
+    for _ in range(iterations):
+        start = time.perf_counter()
+        state, metrics = trainer.train_step(state)
+        jax.block_until_ready(metrics)
+        times.append(time.perf_counter() - start)
+    m = _measurement("train_loop", env, config.ppo.num_envs, config.ppo.unroll_length, compile_s, times)
+    return m

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Train several runs side by side on the lent GPU within one 10-minute device call, streaming
+# their metrics into $OUT as they go and packing the run folders (latest checkpoint) at the end,
+# so a run can be resumed in the next call (newest checkpoint only; runs.tgz.* split below the
+# 16 MB file limit).
+#   bash experiments/device_train.sh SECONDS "NAME|ARGS..." ["NAME|ARGS..." ...]
+# ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead.
+set -u
+seconds=$1; shift
+export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))")
+pids=()
+for spec in "$@"; do
+  name=${spec%%|*}; args=${spec#*|}
+  if [ -d "runs/$name/checkpoints" ]; then
+    python3 -m mjxmimic.cli train --resume "runs/$name" --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
+  else
+    python3 -m mjxmimic.cli train --out "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
+  fi
+  pids+=($!)
+done
+while kill -0 "${pids[@]}" 2>/dev/null; do
+  for spec in "$@"; do n=${spec%%|*}; cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null; done
+  sleep 15
+done
+for spec in "$@"; do
+  n=${spec%%|*}; cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
+  echo "== $n"; tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
+  python3 - "runs/$n" <<'PY'
+import json, sys
+for line in open(sys.argv[1] + "/metrics.jsonl"):
+    d = json.loads(line)
+    if "eval/nr" in d:
+        print(f"  samples {d['step']:>11,}  wall {d['wall']:6.0f} s  NR {d['eval/nr']:.3f}  falls {d['eval/fall_rate']:.2f}")
+PY
+done
+for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
+  ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
+done
+tar czf - runs | split -b 15M - "$OUT/runs.tgz."
