@@ -70,6 +70,7 @@ class RunConfig:
     eval_episodes: int = 64
     target_nr: float = 0.0  # stop once an evaluation reaches this NR; 0 = never
     seed: int = 0  # PRNG seed of the run (network init, env resets, evaluation start times)
+    eval_at_start: bool = False  # also evaluate the untrained policy (a baseline line in metrics.jsonl)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -230,6 +230,9 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     next_ckpt = (env_steps // run_cfg.checkpoint_every + 1) * run_cfg.checkpoint_every
     first_this_call = True
     try:
+        if not resume and run_cfg.eval_at_start and env_steps == 0:
+            result = run_eval()
+            bar.note(f"untrained policy: NR {result['nr']:.3f}")
         with _StopFlag() as stop, bar:
             while env_steps < run_cfg.total_samples:
                 if stop.requested:
