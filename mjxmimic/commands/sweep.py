@@ -1,0 +1,96 @@
+"""`mjxmimic sweep`: a spec file of training runs, run (or resumed) and reported.
+
+    mjxmimic sweep SPEC [--dry-run] [--out DIR] [--gpus auto|none|N|ID,ID] [--max-seconds S]
+    mjxmimic sweep SPEC --report
+
+SPEC is a JSON file (format: mjxmimic/sweep.py; examples in experiments/sweeps/). Each run is a
+normal run folder OUT/RUN (OUT: the spec's "out", default runs/sweeps/NAME), trained by a
+subprocess `mjxmimic train`, one after another, or one per GPU at the same time when two or more
+are visible. A failed run is recorded (OUT/sweep.json, its log in OUT/logs/) and the others go on.
+Running the same spec again skips finished runs, resumes interrupted or time-stopped ones and
+retries failed ones. At the end (or with --report alone) OUT/report.md, OUT/report.csv and
+OUT/curves.png (needs matplotlib) are written.
+
+--dry-run: check the spec and print each run with what would happen (start, resume, skip) and
+its `mjxmimic train` arguments; nothing is written.
+--max-seconds S: a wall-clock budget for this call: each run gets run.max_seconds of at most what
+is left (it stops with a checkpoint, and the next call resumes it), and no run starts with less
+than a minute left.
+
+Exit status: 0 when no run failed (some may have stopped at their time limit: run the sweep
+again to continue them), 1 when a run failed, 2 for a bad spec, 130 on Ctrl-C (the running
+trainings checkpoint first).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from pathlib import Path
+
+from mjxmimic.errors import UserError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", type=Path, help="sweep spec (JSON), e.g. experiments/sweeps/walk_action_mode.json")
+    parser.add_argument("--dry-run", action="store_true", help="print the runs and what would happen; run nothing")
+    parser.add_argument("--report", action="store_true", help="only (re)write the report from the run folders")
+    parser.add_argument("--out", type=Path, help="sweep folder (default: the spec's \"out\", else runs/sweeps/NAME)")
+    parser.add_argument("--gpus", default=None,
+                        help="auto (default; or $MJXMIMIC_SWEEP_GPUS): one run per visible GPU at a time; "
+                             "none: one after another; N: the first N GPUs; 0,2: those GPU ids")
+    parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
+                        help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
+
+
+def _echo(text: str) -> None:
+    print(text, flush=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjxmimic import sweep
+
+    if args.report and args.dry_run:
+        raise UserError("--report and --dry-run cannot be combined")
+    if args.max_seconds is not None and args.max_seconds <= 0:
+        raise UserError("--max-seconds must be positive")
+    spec = sweep.load_spec(args.spec, out=args.out)
+
+    if args.report:
+        for path in sweep.write_report(spec, echo=lambda s: _echo(f"mjxmimic sweep: {s}")):
+            _echo(str(path))
+        return 0
+
+    gpus = sweep.detect_gpus(args.gpus)
+    mode = (f"one run per GPU at a time on GPUs {','.join(gpus)}" if len(gpus) >= 2
+            else f"one run after another{' on GPU ' + gpus[0] if gpus else ''}")
+
+    if args.dry_run:
+        plans = sweep.plan(spec)
+        counts = {a: sum(p.action == a for p in plans) for a in ("start", "resume", "skip")}
+        _echo(f"sweep {spec.name}: {len(plans)} runs in {spec.out} ({counts['start']} to start, "
+              f"{counts['resume']} to resume, {counts['skip']} finished); {mode}")
+        for p in sorted(plans, key=lambda p: p.run.order):
+            action = {"skip": "skip", "resume": "resume", "start": "start"}[p.action]
+            _echo(f"  {p.run.name}: {action} ({p.why})")
+            if p.action != "skip":
+                _echo(f"    mjxmimic train {shlex.join(sweep.train_args(spec, p, args.max_seconds))}")
+        return 0
+
+    _echo(f"sweep {spec.name}: {len(spec.runs)} runs in {spec.out}; {mode}")
+    runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo)
+    try:
+        results = runner.run()
+    except KeyboardInterrupt:
+        # the running trainings have checkpointed; the report shows where every run stands
+        sweep.write_report(spec, echo=lambda s: _echo(f"mjxmimic sweep: {s}"))
+        raise
+    paths = sweep.write_report(spec, echo=lambda s: _echo(f"mjxmimic sweep: {s}"))
+    statuses = list(results.values())
+    counts = {s: statuses.count(s) for s in ("finished", "stopped", "interrupted", "failed", "pending")}
+    summary = ", ".join(f"{n} {s}" for s, n in counts.items() if n)
+    _echo(f"sweep {spec.name}: {summary}; report: {', '.join(str(p) for p in paths)}")
+    if counts["stopped"] or counts["pending"] or counts["interrupted"]:
+        again = shlex.join(["mjxmimic", "sweep", str(args.spec)] + (["--out", str(args.out)] if args.out else []))
+        _echo(f"run `{again}` again to continue the unfinished runs")
+    return 1 if counts["failed"] else 0
