@@ -308,7 +308,7 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
     keys = list(grid)
     combos = list(itertools.product(*(grid[k] for k in keys))) if keys else [()]
     # Which keys vary (named in run names), and which of them share a last part (then: full key).
-    varying = keys + [k for e in entries for k in e if k not in keys]
+    varying = list(dict.fromkeys(keys + [k for e in entries for k in e]))
     last = [k.split(".")[1] for k in varying]
     label_key = {k: (k.split(".")[1] if last.count(k.split(".")[1]) == 1 else k) for k in varying}
 
