@@ -66,8 +66,9 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from mjxmimic import config as config_lib
 from mjxmimic.errors import UserError
@@ -160,26 +161,30 @@ def _short_hash(obj: Any) -> str:
     return hashlib.sha1(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:8]
 
 
+class _SpecError(Exception):
+    """A problem with the spec; load_spec turns it into a UserError naming the file."""
+
+
 def _check_key(key: Any, where: str) -> str:
     if not isinstance(key, str) or key.count(".") != 1:
-        raise ValueError(f"{where}: config key {key!r}: expected section.key")
+        raise _SpecError(f"{where}: config key {key!r}: expected section.key")
     if key == "clip.name":
-        raise ValueError(f"{where}: config key 'clip.name': give clips with \"clips\"")
+        raise _SpecError(f"{where}: config key 'clip.name': give clips with \"clips\"")
     if key == "run.seed":
-        raise ValueError(f"{where}: config key 'run.seed': give seeds with \"seeds\"")
+        raise _SpecError(f"{where}: config key 'run.seed': give seeds with \"seeds\"")
     return key
 
 
 def _overrides(obj: Any, where: str) -> dict[str, Any]:
     if not isinstance(obj, dict):
-        raise ValueError(f"{where}: expected an object of section.key: value")
+        raise _SpecError(f"{where}: expected an object of section.key: value")
     out = {}
     for key, value in obj.items():
         _check_key(key, where)
         try:
             cli_value(value)
         except ValueError as err:
-            raise ValueError(f"{where}: config key {key!r}: {err}") from None
+            raise _SpecError(f"{where}: config key {key!r}: {err}") from None
         out[key] = value
     return out
 
@@ -212,89 +217,87 @@ def load_spec(path: str | Path, out: str | Path | None = None, check_clips: bool
         raise UserError(f"{path}: not valid JSON (not UTF-8 text)") from None
     try:
         return _expand(path, raw, out, check_clips)
-    except ValueError as err:
-        raise UserError(f"{path}: {err}") from None
-    except UserError as err:
+    except (_SpecError, UserError) as err:
         raise UserError(f"{path}: {err}") from None
 
 
 def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> Spec:
     if not isinstance(raw, dict):
-        raise ValueError("expected a JSON object at the top level")
+        raise _SpecError("expected a JSON object at the top level")
     unknown = [k for k in raw if k not in SPEC_FIELDS]
     if unknown:
-        raise ValueError(f"unknown field {unknown[0]!r} (fields: {', '.join(SPEC_FIELDS)})")
+        raise _SpecError(f"unknown field {unknown[0]!r} (fields: {', '.join(SPEC_FIELDS)})")
 
     name = raw.get("name", path.stem)
     if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9._-]+", name) or name in (".", ".."):
-        raise ValueError(f"name {name!r}: use letters, digits, '.', '_' and '-' only")
+        raise _SpecError(f"name {name!r}: use letters, digits, '.', '_' and '-' only")
     description = raw.get("description", "")
     if not isinstance(description, str):
-        raise ValueError("description: expected a string")
+        raise _SpecError("description: expected a string")
     preset = raw.get("preset", "gpu")
     if preset not in config_lib.PRESETS:
-        raise ValueError(f"preset {preset!r} does not exist (presets: {', '.join(config_lib.PRESETS)})")
+        raise _SpecError(f"preset {preset!r} does not exist (presets: {', '.join(config_lib.PRESETS)})")
 
     if "clip" in raw and "clips" in raw:
-        raise ValueError("give either \"clip\" or \"clips\", not both")
+        raise _SpecError("give either \"clip\" or \"clips\", not both")
     if "clip" in raw:
         clips = [raw["clip"]]
     elif "clips" in raw:
         clips = raw["clips"]
         if not isinstance(clips, list) or not clips:
-            raise ValueError("clips: expected a non-empty list of clip names or paths")
+            raise _SpecError("clips: expected a non-empty list of clip names or paths")
     else:
         clips = [config_lib.make_config(preset).clip.name]
     for clip in clips:
         if not isinstance(clip, str) or not clip.strip():
-            raise ValueError(f"clips: {json.dumps(clip)} is not a clip name or path")
+            raise _SpecError(f"clips: {json.dumps(clip)} is not a clip name or path")
     if len(set(clips)) != len(clips):
-        raise ValueError("clips: a clip is listed twice")
+        raise _SpecError("clips: a clip is listed twice")
 
     seeds = raw.get("seeds", [0])
     if isinstance(seeds, int) and not isinstance(seeds, bool):
         seeds = [seeds]
     if (not isinstance(seeds, list) or not seeds
             or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)):
-        raise ValueError("seeds: expected a non-empty list of non-negative integers")
+        raise _SpecError("seeds: expected a non-empty list of non-negative integers")
     if len(set(seeds)) != len(seeds):
-        raise ValueError("seeds: a seed is listed twice")
+        raise _SpecError("seeds: a seed is listed twice")
 
     common = _overrides(raw.get("set", {}), "set")
 
     grid: dict[str, list] = {}
     if "grid" in raw:
         if not isinstance(raw["grid"], dict):
-            raise ValueError("grid: expected an object of section.key: [values]")
+            raise _SpecError("grid: expected an object of section.key: [values]")
         if not raw["grid"]:
-            raise ValueError("grid is empty (leave it out, or give at least one key with values)")
+            raise _SpecError("grid is empty (leave it out, or give at least one key with values)")
         for key, values in raw["grid"].items():
             _check_key(key, "grid")
             if not isinstance(values, list) or not values:
-                raise ValueError(f"grid: config key {key!r}: expected a non-empty list of values")
+                raise _SpecError(f"grid: config key {key!r}: expected a non-empty list of values")
             for v in values:
                 _overrides({key: v}, "grid")
             if len({cli_value(v) for v in values}) != len(values):
-                raise ValueError(f"grid: config key {key!r}: a value is listed twice")
+                raise _SpecError(f"grid: config key {key!r}: a value is listed twice")
             if key in common:
-                raise ValueError(f"config key {key!r} is in both \"set\" and \"grid\"")
+                raise _SpecError(f"config key {key!r} is in both \"set\" and \"grid\"")
             grid[key] = values
 
     entries: list[dict[str, Any]] = [{}]
     if "runs" in raw:
         if not isinstance(raw["runs"], list) or not raw["runs"]:
-            raise ValueError("runs: expected a non-empty list of override objects")
+            raise _SpecError("runs: expected a non-empty list of override objects")
         entries = [_overrides(e, f"runs[{i}]") for i, e in enumerate(raw["runs"])]
         for i, entry in enumerate(entries):
             for key in entry:
                 if key in common:
-                    raise ValueError(f"config key {key!r} is in both \"set\" and runs[{i}]")
+                    raise _SpecError(f"config key {key!r} is in both \"set\" and runs[{i}]")
                 if key in grid:
-                    raise ValueError(f"config key {key!r} is in both \"grid\" and runs[{i}]")
+                    raise _SpecError(f"config key {key!r} is in both \"grid\" and runs[{i}]")
 
     out_dir = out if out is not None else raw.get("out", f"runs/sweeps/{name}")
     if not isinstance(out_dir, (str, Path)) or not str(out_dir).strip():
-        raise ValueError("out: expected a folder path")
+        raise _SpecError("out: expected a folder path")
 
     if check_clips:
         from mjxmimic.clip import resolve_clip
@@ -303,7 +306,7 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
             try:
                 resolve_clip(clip)
             except UserError as err:
-                raise ValueError(f"clips: {err}") from None
+                raise _SpecError(f"clips: {err}") from None
 
     keys = list(grid)
     combos = list(itertools.product(*(grid[k] for k in keys))) if keys else [()]
@@ -325,14 +328,14 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
                     label = _SAFE.sub("_", label).strip("._") or "run"
                     identity = json.dumps([clip, sorted(args.items()), seed])
                     if identity in seen:
-                        raise ValueError(f"run {label} comes twice (a grid value or runs entry is repeated)")
+                        raise _SpecError(f"run {label} comes twice (a grid value or runs entry is repeated)")
                     seen[identity] = label
                     try:
                         cfg = config_lib.make_config(preset, {**args, "clip.name": clip, "run.seed": str(seed)})
                     except UserError as err:
-                        raise ValueError(f"{_origin(str(err), common, grid, ei, entry)}{err} (in run {label})") from None
+                        raise _SpecError(f"{_origin(str(err), common, grid, ei, entry)}{err} (in run {label})") from None
                     except (TypeError, ValueError) as err:
-                        raise ValueError(f"a config value has the wrong type: {err} (in run {label})") from None
+                        raise _SpecError(f"a config value has the wrong type: {err} (in run {label})") from None
                     runs.append(RunSpec(name=label, clip=clip, seed=seed, overrides=own, args=args,
                                         config=cfg, order=(ci, gi, ei, si)))
 
@@ -489,7 +492,7 @@ def _visible_gpus() -> list[str]:
             ids.append(part)
         return ids
     try:
-        out = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True, timeout=20)
+        out = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True, timeout=20, check=False)
     except (OSError, subprocess.SubprocessError):
         return []
     if out.returncode != 0:
@@ -587,7 +590,7 @@ class Runner:
         todo = []
         total = len(plans)
         for i, p in enumerate(plans, 1):
-            rec = dict(dir=p.run.name, clip=p.run.clip, seed=p.run.seed, overrides=p.run.overrides)
+            rec = {"dir": p.run.name, "clip": p.run.clip, "seed": p.run.seed, "overrides": p.run.overrides}
             if p.action == "skip":
                 state.update(p.run.name, **rec, status="finished")
                 results[p.run.name] = "finished"
@@ -868,10 +871,10 @@ def write_tables(spec: Spec, state: dict) -> tuple[Path, Path]:
         lines += [spec.description, ""]
     common = ", ".join(f"`{k}={cli_value(v)}`" for k, v in spec.common.items()) or "none"
     lines += [f"Spec `{spec.path}`; preset `{spec.preset}`; common overrides: {common}.",
-              f"Written {_now()}. NR and fall rate are the final evaluation's (EVALUATION.md) for finished runs, "
-              "else the latest periodic evaluation's, at the samples in column 'NR at'. Wall-clock is the "
-              "training's (compilation included, summed over resumed calls); samples/s is the steady state "
-              "of the run's last call.", ""]
+              (f"Written {_now()}. NR and fall rate are the final evaluation's (EVALUATION.md) for finished "
+               "runs, else the latest periodic evaluation's, at the samples in column 'NR at'. Wall-clock is "
+               "the training's (compilation included, summed over resumed calls); samples/s is the steady "
+               "state of the run's last call."), ""]
     devices = sorted({d for r in spec.runs if (d := (_read_json(spec.run_dir(r) / 'eval.json') or {}).get('device'))})
     if devices:
         lines += [f"Device: {', '.join(devices)}.", ""]
@@ -923,7 +926,8 @@ def write_curves(spec: Spec) -> Path | None:
     fig, axes = plt.subplots(1, 3, figsize=(17, 4.8))
     for run, metrics in series:
         ci = configs.index((run.order[0], run.order[1], run.order[2]))
-        style = dict(color=colors[ci % len(colors)], linestyle=styles[run.order[3] % len(styles)], label=run.name)
+        style = {"color": colors[ci % len(colors)], "linestyle": styles[run.order[3] % len(styles)],
+                 "label": run.name}
         evals = [m for m in metrics if m.get("eval/nr") is not None]
         if evals:
             axes[0].plot([m["step"] for m in evals], [m["eval/nr"] for m in evals], marker="o", ms=3, **style)

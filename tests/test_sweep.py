@@ -16,9 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from mjxmimic import cli
+from mjxmimic import cli, sweep
 from mjxmimic import config as config_lib
-from mjxmimic import sweep
 from mjxmimic.errors import UserError
 
 REPO = Path(__file__).resolve().parent.parent
