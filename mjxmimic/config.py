@@ -33,7 +33,9 @@ class EnvConfig:
     rsi: bool = True  # reset to a random reference time; else to the clip's start
     early_termination: bool = True
     max_joint_velocity: float = 100.0  # beyond this (or NaN) the state is discarded and reset
-    action_mode: str = "absolute"  # "absolute" PD targets (DeepMimic) or "residual" to the reference
+    # "residual": PD targets = reference pose turned by the action (experiments/sweeps: NR 0.49 vs
+    # 0.40 for walk after 10 M samples); "absolute": DeepMimic's, the action spans each joint's range.
+    action_mode: str = "residual"
     action_scale: float = 1.0  # absolute: 1 spans +-pi (ball) and the range (hinge); residual: rad
 
 
@@ -101,11 +103,12 @@ PRESETS: dict[str, dict[str, Any]] = {
         "run.checkpoint_every": 10_000,
         "run.eval_episodes": 16,
     },
-    # The real thing, on one GPU: 240 Hz physics with 4 Newton iterations (benchmarks/RESULTS.md).
+    # The real thing, on one GPU: 240 Hz physics with 4 Newton iterations, 4096 envs (the
+    # physics study and the walk_num_envs sweep, benchmarks/RESULTS.md).
     "gpu": {
         "ppo.num_envs": 4096,
         "ppo.unroll_length": 32,
-        "run.eval_every": 5_000_000,
+        "run.eval_every": 10_000_000,
         "run.checkpoint_every": 10_000_000,
     },
 }
