@@ -50,7 +50,6 @@ import hashlib
 import json
 import shutil
 import tempfile
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -459,27 +458,45 @@ def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.n
 def params_from_run(run_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
     """(`mjxmimic.ppo.export_params` of RUN's latest checkpoint, as numpy; the checkpoint's meta).
 
-    Reads only the "params" and "learner" items of the checkpoint (mjxmimic.checkpoint's layout)
-    with orbax, without a template, so no environment or trainer is built. Imports JAX (orbax).
-    tests/test_export_playback.py checks the result against export_params of the saved state.
+    Restores only the "params" and "learner" items (mjxmimic.checkpoint's layout) into a template
+    of the run's networks, as numpy, so no environment is built and a checkpoint written on a GPU
+    exports on a CPU. Imports JAX (orbax). tests/test_export_playback.py checks the result against
+    export_params of the saved state.
     """
+    import jax
     import orbax.checkpoint as ocp
+    from brax.training import types as brax_types
+    from brax.training.acme import running_statistics
 
     from mjxmimic import checkpoint
+    from mjxmimic import config as config_lib
+    from mjxmimic.character import load_character, resolve_xml
+    from mjxmimic.observation import observation_size
+    from mjxmimic.ppo import make_networks
 
     step = checkpoint.latest_checkpoint(run_dir)
     if step is None:
         raise UserError(f"{run_dir}: no checkpoint found in {checkpoint.checkpoint_dir(run_dir)}")
+    cfg = config_lib.load(Path(run_dir) / "config.json")
+    character = load_character(resolve_xml(cfg.character.xml))
+    obs_size, act_size = observation_size(character.model.nbody), character.action_size
+    networks = make_networks(obs_size, act_size, cfg)
+    key = jax.random.PRNGKey(0)
+    template = {
+        "params": {"policy": networks.policy_network.init(key), "value": networks.value_network.init(key)},
+        "learner": {"normalizer": running_statistics.init_state(jax.ShapeDtypeStruct((obs_size,), np.float32)),
+                    "key": key, "env_steps": brax_types.UInt64(hi=0, lo=0)},
+    }
+    template = jax.tree_util.tree_map(np.asarray, template)
+    as_numpy = {name: ocp.args.PyTreeRestore(tree, restore_args=jax.tree_util.tree_map(
+        lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree)) for name, tree in template.items()}
     options = ocp.CheckpointManagerOptions(create=False)
-    with warnings.catch_warnings(), ocp.CheckpointManager(
-            checkpoint.checkpoint_dir(run_dir), options=options, item_names=("params", "learner", "meta")) as mngr:
-        warnings.filterwarnings("ignore", message="Sharding info not provided")  # host arrays are all we want
-        out = mngr.restore(step, args=ocp.args.Composite(params=ocp.args.PyTreeRestore(),
-                                                         learner=ocp.args.PyTreeRestore(),
-                                                         meta=ocp.args.JsonRestore()))
+    with ocp.CheckpointManager(checkpoint.checkpoint_dir(run_dir), options=options,
+                               item_names=("params", "learner", "meta")) as mngr:
+        out = mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore(), **as_numpy))
     try:
         normalizer = out["learner"]["normalizer"]
-        params = {"normalizer": {"mean": np.asarray(normalizer["mean"]), "std": np.asarray(normalizer["std"])},
+        params = {"normalizer": {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)},
                   "policy": {name: {k: np.asarray(v) for k, v in layer.items()}
                              for name, layer in out["params"]["policy"]["params"].items()}}
     except (KeyError, TypeError) as err:
