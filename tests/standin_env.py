@@ -16,7 +16,8 @@ from brax.envs.base import State
 
 class StandInEnv:
     def __init__(self, n: int = 4, clip_duration: float = 2.0, control_dt: float = 1 / 30,
-                 episode_steps: int = 120, looping: bool = True, fall_threshold: float = 0.25):
+                 episode_steps: int = 120, looping: bool = True, fall_threshold: float = 0.25,
+                 pad_observation_to: int = 0):
         self.n = n
         self.clip_duration = float(clip_duration)
         self.control_dt = float(control_dt)
@@ -24,11 +25,12 @@ class StandInEnv:
         self.looping = looping
         self.fall_threshold = fall_threshold
         self._phase = jnp.linspace(0.0, 3.0, n)
+        self._pad = max(0, pad_observation_to - (3 * n + 2))  # zeros, to mimic a larger observation
         self.max_eval_horizon = 600 if looping else int(round(self.clip_duration / self.control_dt))
 
     @property
     def observation_size(self) -> int:
-        return 3 * self.n + 2
+        return 3 * self.n + 2 + self._pad
 
     @property
     def action_size(self) -> int:
@@ -51,7 +53,7 @@ class StandInEnv:
     def _obs(self, x, t):
         w = 2 * jnp.pi * t / self.clip_duration
         return jnp.concatenate([x, self._ref(t), self._ref(t + self.control_dt),
-                                jnp.array([jnp.sin(w), jnp.cos(w)])])
+                                jnp.array([jnp.sin(w), jnp.cos(w)]), jnp.zeros(self._pad)])
 
     def _metrics(self, reward, err, ee, fell):
         return {"reward": reward, "reward/track": reward, "error/pose": err,

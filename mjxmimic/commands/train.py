@@ -139,7 +139,7 @@ def _device_info() -> dict:
 
 def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
           env_factory: Callable | None = None, start_time: float | None = None,
-          progress: bool = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
+          progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
     """Train (or continue) the run in `run_dir`. `env`/`env_factory` default to mjxmimic.env.make_env
     (tests pass a stand-in). `start_time`: the command's start (time-to-skill counts from it)."""
     t_start = time.time() if start_time is None else start_time
@@ -158,8 +158,9 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     run_cfg = config.run
 
     run_dir.mkdir(parents=True, exist_ok=True)
-    if not resume:
-        config_lib.save(config, run_dir / "config.json")
+    config_path = run_dir / "config.json"
+    if not resume or config_lib.load(config_path) != config:  # a resume may change run.* keys
+        config_lib.save(config, config_path)
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -297,15 +298,17 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
 
 
 class _Progress:
-    """rich progress bar: samples, samples/s, mean reward per step (to stderr)."""
+    """Progress to stderr: a rich bar (samples, samples/s, mean reward per step) when `mode` is
+    True, a plain line every 30 s when it is "plain" (logs of non-interactive runs), else nothing."""
 
-    def __init__(self, enabled: bool, total: int, completed: int):
-        self.enabled = enabled
+    def __init__(self, mode: bool | str, total: int, completed: int):
+        self.mode = mode
         self.total, self.completed = total, completed
         self._progress = None
+        self._last_line = time.time()
 
     def __enter__(self):
-        if self.enabled:
+        if self.mode is True:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -323,10 +326,16 @@ class _Progress:
     def update(self, completed: int, sps: float, reward: float) -> None:
         if self._progress is not None:
             self._progress.update(self._task, completed=completed, sps=sps, reward=reward)
+        elif self.mode == "plain" and time.time() - self._last_line >= 30.0:
+            self._last_line = time.time()
+            print(f"train: {completed:,}/{self.total:,} samples, {sps:,.0f} samples/s, reward {reward:.3f}",
+                  file=sys.stderr, flush=True)
 
     def note(self, text: str) -> None:
         if self._progress is not None:
             self._progress.console.print(text)
+        elif self.mode == "plain":
+            print(f"train: {text}", file=sys.stderr, flush=True)
 
     def __exit__(self, *exc):
         if self._progress is not None:
@@ -344,7 +353,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         env = None
     outcome = train(config, run_dir, resume=resume, env=env, start_time=start,
-                    progress=sys.stderr.isatty())
+                    progress=True if sys.stderr.isatty() else "plain")
     s = outcome.summary
     line = (f"{run_dir}: {outcome.reason} after {s['samples']:,} samples, {s['iterations']} iterations, "
             f"{s['train_seconds']:.0f} s")
