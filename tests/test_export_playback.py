@@ -34,7 +34,9 @@ REPO = Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="module")
 def config():
-    return config_lib.make_config("cpu")
+    # A converged contact solve: with the cpu preset's single Newton iteration, MJX and MuJoCo C
+    # stop at different unconverged solutions, and the physics (not playback) would differ.
+    return config_lib.make_config("cpu", {"env.solver_iterations": 30, "env.ls_iterations": 30})
 
 
 @pytest.fixture(scope="module")
@@ -177,51 +179,20 @@ def test_observation_parity_on_random_states_in_the_air(env, cpu_env, mjx_fns):
     assert worst["obs"] < 1e-3 and worst["reward"] < 1e-4, worst
 
 
-def _box_contact_spread_ok(model, data) -> bool:
-    """False where MJX's plane-box collision keeps fewer corners than MuJoCo C: MJX keeps only the
-    corners within 1 mm of the deepest (mjx/_src/collision_convex.py, plane_convex), C all that
-    penetrate. Same contact set iff every box's C contact depths lie within 1 mm."""
-    n = data.ncon
-    geoms, dist = data.contact.geom[:n], data.contact.dist[:n]
-    for g in np.unique(geoms):
-        if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
-            continue
-        d = dist[(geoms == g).any(axis=1)]
-        if d.size and d.max() - d.min() >= 1e-3:
-            return False
-    return True
-
-
-def test_observation_parity_from_reference_states_on_the_ground(env, cpu_env, mjx_fns, monkeypatch):
-    """RSI states with feet on the floor and small actions: the step agrees whenever the two
-    simulators have the same contact set. Where a foot box tilts by more than 1 mm along the floor,
-    MJX keeps fewer contact corners than MuJoCo C (a known MJX difference, not playback's), and
-    that step is counted, not compared."""
-    ok = {"flag": True}
-    original = mujoco.mj_step
-
-    def recording_step(model, data):
-        original(model, data)
-        ok["flag"] &= _box_contact_spread_ok(model, data)
-
-    monkeypatch.setattr(mujoco, "mj_step", recording_step)
+def test_observation_parity_from_reference_states_on_the_ground(env, cpu_env, mjx_fns):
+    """RSI states with the feet on the floor and small actions: one step agrees (with a converged
+    contact solve; the feet touch the floor through sole spheres, which MJX and C treat alike)."""
     rng = np.random.default_rng(2)
-    compared = 0
     for _ in range(10):
         t = float(rng.uniform(0, env.clip_duration))
         qpos, qvel = (np.asarray(x, np.float32) for x in motion.sample(env.motion, 0, t))
         action = rng.uniform(-0.1, 0.1, env.action_size)
         obs0 = cpu_env.reset_at(t)
         np.testing.assert_allclose(obs0, np.asarray(mjx_fns[0](jax.random.PRNGKey(0), jnp.float32(t)).obs), atol=1e-5)
-        ok["flag"] = True
         nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, action)
         assert bool(nxt.done) == step.done
-        if not ok["flag"]:
-            continue
-        compared += 1
         np.testing.assert_allclose(step.obs, np.asarray(nxt.obs), atol=1e-3)
         assert step.reward == pytest.approx(float(nxt.reward), abs=1e-4)
-    assert compared >= 3, compared
 
 
 def test_fall_detection_matches(env, cpu_env, mjx_fns):
