@@ -23,7 +23,7 @@ run end to end on the 'fast' env in tests/test_compat.py):
 - `jax.device_put_sharded` is also gone from JAX; brax 0.14.2 does not call it, so it is not patched.
 - Removed aliases such as `jax.tree_map` / `jax.tree_leaves` are not used by brax 0.14.2 (it uses
   `jax.tree_util.*` and `jax.tree.*`).
-- `jax.pmap` still exists (in JAX >= 0.8 it is implemented on top of `shard_map`); brax's
+- `jax.pmap` still exists (recent JAX implements it on top of `shard_map`); brax's
   `_unpmap` reads `addressable_shards[0]`, which works with arrays placed by the replacement.
 - The only other hits of the scan are prose (`jnp.linal.norm` in a docstring of brax/math.py,
   `jax.Arrays` in docstrings of brax/io/torch.py), not code.
