@@ -259,7 +259,7 @@ def test_export_round_trip(run, policy_file, config, env):
     assert pf.character_xml == env.character.xml_path.read_text()
     assert m["clip"]["name"] == config.clip.name and m["clip"]["loop"] is True
     assert m["control"]["physics_hz"] == 120 and m["control"]["substeps"] == 4
-    assert m["control"]["control_hz"] == 30 and m["control"]["action_mode"] == "absolute"
+    assert m["control"]["control_hz"] == 30 and m["control"]["action_mode"] == config.env.action_mode
     assert m["observation"]["size"] == env.observation_size == sum(p["size"] for p in m["observation"]["layout"])
     assert [j["name"] for j in m["character"]["joints"]] == [j.name for j in env.character.joints]
     assert [j["kp"] for j in m["character"]["joints"]] == [j.kp for j in env.character.joints]
