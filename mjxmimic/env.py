@@ -18,6 +18,7 @@ from brax.envs.base import Env, State
 from mujoco import mjx
 
 from mjxmimic import motion as motion_lib
+from mjxmimic.compat import patch_all
 from mjxmimic.character import Character, default_fall_contact, load_character, physics_model, resolve_xml
 from mjxmimic.config import Config
 from mjxmimic.control import action_to_targets, pd_forces
@@ -26,6 +27,8 @@ from mjxmimic.kinematics import kin_from_data
 from mjxmimic.layout import make_layout
 from mjxmimic.observation import observation
 from mjxmimic.reward import KINDS, reward
+
+patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
 class ImitationEnv(Env):
     """One clip, one character; unbatched (vmap it)."""
