@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from mjxmimic import quat
 from mjxmimic.errors import UserError
 
 if TYPE_CHECKING:
@@ -102,16 +103,8 @@ class Clip:
     @property
     def heading_change(self) -> float:
         """Root heading (yaw about z) at the last frame minus the first, radians in (-pi, pi]."""
-        first, last = (_heading(q) for q in (self.qpos[0, 3:7], self.qpos[-1, 3:7]))
+        first, last = (float(quat.heading(q)) for q in (self.qpos[0, 3:7], self.qpos[-1, 3:7]))
         return float(math.remainder(last - first, 2 * math.pi))
-
-
-def _heading(q: np.ndarray) -> float:
-    """Yaw of the root's forward (x) axis in the ground plane."""
-    w, x, y, z = q
-    fx = 1 - 2 * (y * y + z * z)
-    fy = 2 * (x * y + w * z)
-    return math.atan2(fy, fx)
 
 
 # ---------------------------------------------------------------------------------------- loading

@@ -25,7 +25,7 @@ from mjxmimic.control import action_to_targets, pd_forces
 from mjxmimic.errors import UserError
 from mjxmimic.kinematics import kin_from_data
 from mjxmimic.layout import make_layout
-from mjxmimic.observation import observation
+from mjxmimic.observation import observation, observation_size
 from mjxmimic.reward import KINDS, reward
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
@@ -70,7 +70,7 @@ class ImitationEnv(Env):
     # Brax Env interface -------------------------------------------------------------------
     @property
     def observation_size(self) -> int:
-        return 2 + 15 * (self.model.nbody - 1)
+        return observation_size(self.model.nbody)
 
     @property
     def action_size(self) -> int:

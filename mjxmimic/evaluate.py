@@ -33,10 +33,17 @@ import numpy as np
 from mjxmimic.config import Config
 
 
+def start_times(key: jax.Array, num_episodes: int, clip_duration: float) -> jax.Array:
+    """Episode start times, uniform over the clip, from the first of three keys split from `key`
+    (CPU playback replays the same starts from the same seed)."""
+    k_time = jax.random.split(key, 3)[0]
+    return jax.random.uniform(k_time, (num_episodes,), minval=0.0, maxval=clip_duration)
+
+
 def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int) -> dict:
     """Per-episode sums (traceable; jit it). policy_fn(obs, key) -> action, batched over episodes."""
-    k_time, k_reset, k_policy = jax.random.split(key, 3)
-    t0 = jax.random.uniform(k_time, (num_episodes,), minval=0.0, maxval=env.clip_duration)
+    _, k_reset, k_policy = jax.random.split(key, 3)
+    t0 = start_times(key, num_episodes, env.clip_duration)
     state = jax.vmap(env.reset_at)(jax.random.split(k_reset, num_episodes), t0)
     horizon = jnp.maximum(jnp.broadcast_to(jnp.asarray(env.eval_horizon(t0), jnp.int32), (num_episodes,)), 1)
     horizon = jnp.minimum(horizon, env.max_eval_horizon)

@@ -445,14 +445,13 @@ def read(path: str | Path) -> PolicyFile:
 
 
 def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.ndarray:
-    """The start times of `mjxmimic.evaluate`'s episodes for a seed (needs JAX): key
-    PRNGKey(seed) split in 3, the first drawing U[0, clip_duration) per episode.
+    """The start times of `mjxmimic.evaluate`'s episodes for a seed (needs JAX).
     tests/test_export_playback.py checks this against mjxmimic.evaluate itself."""
     import jax
 
-    k_time, _, _ = jax.random.split(jax.random.PRNGKey(seed), 3)
-    t0 = jax.random.uniform(k_time, (episodes,), minval=0.0, maxval=clip_duration)
-    return np.asarray(t0, np.float32)
+    from mjxmimic.evaluate import start_times
+
+    return np.asarray(start_times(jax.random.PRNGKey(seed), episodes, clip_duration), np.float32)
 
 
 def params_from_run(run_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -365,6 +365,6 @@ def run(args: argparse.Namespace) -> int:
     elif outcome.reason == "max_seconds":
         line += f"; continue with: mjxmimic train --resume {run_dir}"
     if s.get("recompiled"):
-        print(f"mjxmimic train: warning: the train step recompiled after the first iteration", file=sys.stderr)
+        print("mjxmimic train: warning: the train step recompiled after the first iteration", file=sys.stderr)
     print(line)
     return outcome.exit_code
