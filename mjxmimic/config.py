@@ -42,6 +42,10 @@ class EnvConfig:
 @dataclasses.dataclass(frozen=True)
 class RewardConfig:
     kind: str = "released"  # "released" (five terms) or "paper" (four terms)
+    # At each new cycle of a looping clip, move the reference root horizontally under the
+    # character (DeepMimic's released sync_char_root_pos, on by default there); off: the reference
+    # root runs on its own and drift costs root reward for the rest of the episode.
+    sync_root_position: bool = True
 
 
 @dataclasses.dataclass(frozen=True)

@@ -96,7 +96,8 @@ class ImitationEnv(Env):
         data = self._kinematics(self._data0.replace(qpos=qpos, qvel=qvel))
         obs = observation(kin_from_data(data, jnp), motion_lib.phase(self.motion, 0, t, jnp), jnp)
         zero = jnp.zeros(())
-        info = {"time": t, "steps": jnp.zeros((), jnp.int32), "rng": rng, "truncation": zero}
+        info = {"time": t, "steps": jnp.zeros((), jnp.int32), "rng": rng, "truncation": zero,
+                "root_offset": jnp.zeros(2)}
         metrics = {k: zero for k in self._metric_keys}
         return State(pipeline_state=data, obs=obs, reward=zero, done=zero, metrics=metrics, info=info)
 
@@ -108,7 +109,8 @@ class ImitationEnv(Env):
         done = nxt.done > 0
         pick = lambda a, b: jax.tree.map(lambda x, y: jnp.where(done, x, y), a, b)
         info = dict(nxt.info, rng=rng, time=jnp.where(done, fresh.info["time"], nxt.info["time"]),
-                    steps=jnp.where(done, 0, nxt.info["steps"]))
+                    steps=jnp.where(done, 0, nxt.info["steps"]),
+                    root_offset=jnp.where(done, fresh.info["root_offset"], nxt.info["root_offset"]))
         return nxt.replace(pipeline_state=pick(fresh.pipeline_state, nxt.pipeline_state),
                            obs=jnp.where(done, fresh.obs, nxt.obs), info=info)
 
@@ -117,7 +119,7 @@ class ImitationEnv(Env):
         """One control step without reset (evaluation uses this directly)."""
         cfg = self.config.env
         t = state.info["time"] + self.control_dt
-        ref_qpos, ref_qvel = motion_lib.sample(self.motion, 0, t, jnp)
+        ref_qpos, ref_qvel = motion_lib.sample(self.motion, 0, t, jnp)  # the unshifted root
         targets = action_to_targets(self.layout, action, ref_qpos, cfg.action_mode, cfg.action_scale, jnp)
 
         def substep(data, _):
@@ -130,6 +132,11 @@ class ImitationEnv(Env):
         data, fell = jax.lax.scan(substep, state.pipeline_state, None, length=self.substeps)
         fell = jnp.any(fell) & cfg.early_termination
         data = self._kinematics(data)
+        offset = state.info["root_offset"]
+        if self.config.reward.sync_root_position:
+            offset = motion_lib.sync_root_offset(self.motion, 0, state.info["time"], t, offset,
+                                                 data.qpos[0:2], ref_qpos[0:2], jnp)
+        ref_qpos = motion_lib.shift_root(ref_qpos, offset, jnp)
         ref = self._kinematics(self._data0.replace(qpos=ref_qpos, qvel=ref_qvel))
         sim_kin, ref_kin = kin_from_data(data, jnp), kin_from_data(ref, jnp)
         r, metrics = reward(self.layout, sim_kin, ref_kin, self.config.reward.kind, jnp)
@@ -147,7 +154,7 @@ class ImitationEnv(Env):
         metrics = dict(metrics, reward=r, fell=fell.astype(jnp.float32))
         metrics = {k: jnp.where(bad, 0.0, jnp.nan_to_num(v)) if k.startswith("error") else v
                    for k, v in metrics.items()}
-        info = dict(state.info, time=t, steps=steps,
+        info = dict(state.info, time=t, steps=steps, root_offset=offset,
                     truncation=(timeout & ~failed & ~clip_end).astype(jnp.float32))
         return state.replace(pipeline_state=data, obs=obs, reward=r, done=done.astype(jnp.float32),
                              metrics=metrics, info=info)

@@ -4,7 +4,8 @@
 numpy: the environment samples it with jax.numpy, CPU playback with numpy (`xp` argument).
 Layout follows MimicKit: all clips' frames concatenated, plus per-clip start, length and loop mode.
 Cyclic clips continue across cycles: each new cycle is the first one moved by the clip's net
-root displacement and heading change, applied k times for cycle k.
+root displacement and heading change, applied k times for cycle k. An episode may also move the
+reference root horizontally under the character at each new cycle (`sync_root_offset`).
 """
 
 from __future__ import annotations
@@ -141,3 +142,22 @@ def sample(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> tuple[Any, Any]:
     qpos = xp.concatenate([xy, qpos[2:3], root_quat, qpos[7:]])
     qvel = xp.concatenate([quat.rotate_yaw(qvel[0:3], yaw, xp), qvel[3:]])
     return qpos, qvel
+
+
+def sync_root_offset(lib: MotionLib, clip: Any, t_prev: Any, t: Any, offset: Any, sim_xy: Any,
+                     ref_xy: Any, xp: Any = np) -> Any:
+    """The horizontal offset added to the reference root from time t on.
+
+    DeepMimic's released code (sync_char_root_pos, on by default) moves a cyclic reference's root
+    horizontally to the simulated root whenever a new cycle starts, so that the character's
+    harmless drift over many cycles does not pile up in the root-position error. `ref_xy` is the
+    unshifted reference root at t; between cycle starts the offset is kept.
+    """
+    dur = lib.duration[clip]
+    new_cycle = lib.loop[clip] & (xp.floor(t / dur) > xp.floor(t_prev / dur))
+    return xp.where(new_cycle, sim_xy - ref_xy, offset)
+
+
+def shift_root(qpos: Any, offset: Any, xp: Any = np) -> Any:
+    """qpos with its root moved horizontally by offset (2,)."""
+    return xp.concatenate([qpos[0:2] + offset, qpos[2:]])

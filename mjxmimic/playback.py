@@ -94,6 +94,7 @@ class CpuEpisode:
         self.fall_geom = np.isin(self.model.geom_bodyid, fall_bodies)
         self.time = 0.0
         self.steps = 0
+        self.root_offset = np.zeros(2)  # the env's info["root_offset"]
 
     # ---- the env's reset and transition ---------------------------------------------------
     def _kinematics(self, data: mujoco.MjData) -> None:
@@ -105,10 +106,12 @@ class CpuEpisode:
         return np.asarray(motion_lib.phase(self.motion, 0, np.float32(t), np))
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Reference (qpos, qvel) at clip time t (float32 time, as in the env)."""
-        return motion_lib.sample(self.motion, 0, np.float32(t), np)
+        """Reference (qpos, qvel) at clip time t (float32 time, as in the env), root shifted by
+        the current root offset."""
+        qpos, qvel = motion_lib.sample(self.motion, 0, np.float32(t), np)
+        return motion_lib.shift_root(qpos, self.root_offset, np), qvel
 
-    def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0) -> np.ndarray:
+    def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0)) -> np.ndarray:
         """Put the character in (qpos, qvel) at clip time t; returns the observation."""
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:] = qpos
@@ -116,11 +119,12 @@ class CpuEpisode:
         self._kinematics(self.data)
         self.time = float(np.float32(t))
         self.steps = int(steps)
+        self.root_offset = np.array(root_offset, dtype=np.float64)
         return observation(kin_from_data(self.data, np), self._phase(self.time), np)
 
     def reset_at(self, t: float) -> np.ndarray:
         """The reference state at clip time t (RSI); returns the observation."""
-        qpos, qvel = self.reference(t)
+        qpos, qvel = motion_lib.sample(self.motion, 0, np.float32(t), np)
         return self.set_state(qpos, qvel, t)
 
     def _bad_warnings(self) -> int:
@@ -130,7 +134,7 @@ class CpuEpisode:
         cfg = self.config.env
         # The env keeps time in float32; so does this, so that both sample the same reference.
         t = float(np.float32(np.float32(self.time) + np.float32(self.control_dt)))
-        ref_qpos, ref_qvel = self.reference(t)
+        ref_qpos, ref_qvel = motion_lib.sample(self.motion, 0, np.float32(t), np)  # the unshifted root
         targets = action_to_targets(self.layout, np.asarray(action, np.float64), ref_qpos,
                                     cfg.action_mode, cfg.action_scale, np)
         data = self.data
@@ -146,7 +150,10 @@ class CpuEpisode:
                 fell = fell or bool(hit.any())
         fell = fell and cfg.early_termination
         self._kinematics(data)
-        self._ref.qpos[:] = ref_qpos
+        if self.config.reward.sync_root_position:
+            self.root_offset = motion_lib.sync_root_offset(self.motion, 0, np.float32(self.time), np.float32(t),
+                                                           self.root_offset, data.qpos[0:2], ref_qpos[0:2], np)
+        self._ref.qpos[:] = motion_lib.shift_root(ref_qpos, self.root_offset, np)
         self._ref.qvel[:] = ref_qvel
         self._kinematics(self._ref)
         sim_kin, ref_kin = kin_from_data(data, np), kin_from_data(self._ref, np)

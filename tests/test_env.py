@@ -9,7 +9,7 @@ from mujoco import mjx
 
 from mjxmimic import motion, quat
 from mjxmimic.clip import load_clip
-from mjxmimic.config import make_config
+from mjxmimic.config import apply_overrides, make_config
 from mjxmimic.control import action_to_targets, pd_forces
 from mjxmimic.env import ImitationEnv
 from mjxmimic.kinematics import kin_from_data
@@ -91,6 +91,32 @@ def test_reset_state_is_the_reference_and_scores_one(env, transition):
     nxt = transition(state, jnp.zeros(env.action_size))  # PD toward the reference, one step
     assert float(nxt.reward) > 0.7
     assert float(nxt.done) == 0.0
+
+
+def test_reference_root_moves_under_the_character_at_each_new_cycle(env, transition):
+    """DeepMimic's sync_char_root_pos: a character 0.5 m beside its reference loses root reward
+    until the next cycle starts, then the reference root is moved under it (and not before)."""
+    dt = env.control_dt
+
+    def shifted(t):
+        state = env.reset_at(jax.random.PRNGKey(0), t)
+        data = state.pipeline_state
+        return state.replace(pipeline_state=data.replace(qpos=data.qpos.at[0:2].add(jnp.array([0.3, -0.4]))))
+
+    mid = transition(shifted(0.5), jnp.zeros(env.action_size))
+    np.testing.assert_array_equal(mid.info["root_offset"], 0.0)
+    assert float(mid.metrics["reward/root"]) < 0.35  # exp(-5 * 0.25)
+
+    crossing = transition(shifted(env.clip_duration - 0.5 * dt), jnp.zeros(env.action_size))
+    ref_qpos, _ = motion.sample(env.motion, 0, float(crossing.info["time"]))
+    np.testing.assert_allclose(crossing.info["root_offset"],
+                               crossing.pipeline_state.qpos[0:2] - ref_qpos[0:2], atol=1e-5)
+    assert float(crossing.metrics["reward/root"]) > 0.8
+
+    unsynced = ImitationEnv(apply_overrides(env.config, {"reward.sync_root_position": False}),
+                            env.character, env.clips)
+    crossing = jax.jit(unsynced.transition)(shifted(env.clip_duration - 0.5 * dt), jnp.zeros(env.action_size))
+    assert float(crossing.metrics["reward/root"]) < 0.35
 
 
 def test_rsi_draws_a_fresh_start_on_every_reset(env):

@@ -195,6 +195,18 @@ def test_observation_parity_from_reference_states_on_the_ground(env, cpu_env, mj
         assert step.reward == pytest.approx(float(nxt.reward), abs=1e-4)
 
 
+def test_root_sync_at_a_new_cycle_matches(env, cpu_env, mjx_fns):
+    """A character beside its reference crosses into a new cycle: both sides move the reference
+    root under it alike (the root offset and the reward agree)."""
+    t = env.clip_duration - 0.5 * env.control_dt
+    qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.motion, 0, t))
+    qpos[0:2] += np.array([0.3, -0.4], np.float32)
+    nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, np.zeros(env.action_size))
+    np.testing.assert_allclose(cpu_env.root_offset, np.asarray(nxt.info["root_offset"]), atol=1e-4)
+    assert np.abs(cpu_env.root_offset).max() > 0.25
+    assert step.reward == pytest.approx(float(nxt.reward), abs=1e-4)
+
+
 def test_fall_detection_matches(env, cpu_env, mjx_fns):
     t = 0.2
     qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.motion, 0, t))
