@@ -4,7 +4,8 @@
 # so a run can be resumed in the next call (newest checkpoint only; runs.tgz.* split below the
 # 16 MB file limit).
 #   bash experiments/device_train.sh SECONDS "NAME|ARGS..." ["NAME|ARGS..." ...]
-# ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead.
+# ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with ARGS, which
+# may then only be --set run.* or ppo.learning_rate).
 set -u
 seconds=$1; shift
 export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))")
@@ -12,7 +13,7 @@ pids=()
 for spec in "$@"; do
   name=${spec%%|*}; args=${spec#*|}
   if [ -d "runs/$name/checkpoints" ]; then
-    python3 -m mjxmimic.cli train --resume "runs/$name" --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
+    python3 -m mjxmimic.cli train --resume "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
   else
     python3 -m mjxmimic.cli train --out "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
   fi

@@ -7,6 +7,7 @@ happen inside `run`, so `mjxmimic play` stays JAX-free.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import sys
 
@@ -22,6 +23,7 @@ COMMANDS = {
     "bench": ("mjxmimic.commands.bench", "throughput benchmarks"),
     "sweep": ("mjxmimic.commands.sweep", "run a grid of training runs and report"),
 }
+JAX_FREE = ("play", "clips")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,6 +42,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command not in JAX_FREE:
+        # mujoco.mjx prints "Failed to import warp: ..." on stdout when the optional warp package
+        # is missing; import it here with stdout on stderr so that `--json` output stays JSON.
+        with contextlib.redirect_stdout(sys.stderr):
+            importlib.import_module("mujoco.mjx")
     module = importlib.import_module(COMMANDS[args.command][0])
     try:
         return int(module.run(args) or 0)

@@ -50,8 +50,8 @@ class RewardConfig:
 
 @dataclasses.dataclass(frozen=True)
 class PPOConfig:
-    num_envs: int = 4096
-    unroll_length: int = 32
+    num_envs: int = 8192
+    unroll_length: int = 16
     num_minibatches: int = 8
     num_epochs: int = 4
     learning_rate: float = 3e-4
@@ -105,11 +105,13 @@ PRESETS: dict[str, dict[str, Any]] = {
         "run.checkpoint_every": 10_000,
         "run.eval_episodes": 16,
     },
-    # The real thing, on one GPU: 240 Hz physics with 4 Newton iterations, 4096 envs (the
-    # physics study and the walk_num_envs sweep, benchmarks/RESULTS.md).
+    # The real thing, on one GPU: 240 Hz physics with 4 Newton iterations (the physics study),
+    # 8192 envs x 16 steps = 131072 samples per iteration, the batch of 4096 x 32 gathered 1.2x
+    # faster (benchmarks/RESULTS.md); 16384 x 8 was faster still but learned unstably
+    # (experiments/README.md).
     "gpu": {
-        "ppo.num_envs": 4096,
-        "ppo.unroll_length": 32,
+        "ppo.num_envs": 8192,
+        "ppo.unroll_length": 16,
         "run.eval_every": 10_000_000,
         "run.checkpoint_every": 10_000_000,
     },

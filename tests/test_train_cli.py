@@ -6,6 +6,7 @@ compiled evaluator at 0 samples), checkpoints and eval.json. Resume, max_seconds
 the stand-in env through `train()` to stay fast.
 """
 
+import argparse
 import json
 import os
 import signal
@@ -17,7 +18,8 @@ import pytest
 
 from mjxmimic import checkpoint, cli
 from mjxmimic import config as config_lib
-from mjxmimic.commands.train import train
+from mjxmimic.commands.train import resolve_run, train
+from mjxmimic.errors import UserError
 from mjxmimic.metrics_log import read
 from standin_env import StandInEnv
 
@@ -145,6 +147,15 @@ def test_resume_continues_from_the_saved_env_steps(tmp_path):
     _, meta = checkpoint.restore(run_dir, _template(more))
     assert meta["env_steps"] == 10240 and meta["iterations"] == 20
     assert second.summary["recompiled"] is False
+
+    def resume_with(*sets):
+        return resolve_run(argparse.Namespace(resume=run_dir, overrides=list(sets), clip=None, preset=None,
+                                              out=None, name=None, seed=None))
+
+    config, _, resuming = resume_with("ppo.learning_rate=1e-4")  # a fine-tuning phase
+    assert resuming and config.ppo.learning_rate == 1e-4
+    with pytest.raises(UserError, match="ppo.num_envs"):
+        resume_with("ppo.num_envs=8")
 
 
 def _template(config):

@@ -14,7 +14,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default="gpu", choices=sorted(config_lib.PRESETS))
     parser.add_argument("--clip", default=None, help="clip NAME or PATH (default: the preset's clip)")
     parser.add_argument("--num-envs", type=int, nargs="+", default=None,
-                        help="env counts (default: 4096 16384 65536 for gpu, 32 128 for cpu)")
+                        help="env counts (default: 4096 8192 16384 65536 for gpu, 32 128 for cpu)")
     parser.add_argument("--kinds", nargs="+", default=["physics_only", "env_step", "train_loop"],
                         choices=["physics_only", "env_step", "train_loop"])
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE")
@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     if args.clip:
         overrides["clip.name"] = args.clip
     base = config_lib.make_config(args.preset, overrides)
-    counts = args.num_envs or ([4096, 16384, 65536] if args.preset == "gpu" else [32, 128])
+    counts = args.num_envs or ([4096, 8192, 16384, 65536] if args.preset == "gpu" else [32, 128])
     character, clips = load_env_inputs(base)
     rows = []
     for n in counts:
