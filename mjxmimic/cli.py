@@ -23,7 +23,7 @@ COMMANDS = {
     "bench": ("mjxmimic.commands.bench", "throughput benchmarks"),
     "sweep": ("mjxmimic.commands.sweep", "run a grid of training runs and report"),
 }
-JAX_FREE = ("play", "clips")
+USES_MJX = ("train", "eval", "export", "bench")  # the others stay JAX-free where they can
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -42,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.command not in JAX_FREE:
+    if args.command in USES_MJX:
         # mujoco.mjx prints "Failed to import warp: ..." on stdout when the optional warp package
         # is missing; import it here with stdout on stderr so that `--json` output stays JSON.
         with contextlib.redirect_stdout(sys.stderr):
