@@ -393,10 +393,11 @@ def test_sim_to_sim_nr_on_the_same_starts(run, policy_file):
 
 
 def test_cpu_episode_counts_like_the_evaluation(cpu_env):
-    """Reference-tracking actions on a looping clip: the horizon is 600 steps whatever the time
-    limit, NR is reward / horizon, a fall ends the episode and scores 0 after it."""
-    assert cpu_env.eval_horizon(0.3) == 600 == cpu_env.max_eval_horizon
+    """Zero absolute targets on a looping clip: the horizon is the env's episode length in steps
+    (600 at 20 s), NR is reward / horizon, a fall ends the episode and scores 0 after it."""
+    horizon = cpu_env.max_steps
+    assert cpu_env.eval_horizon(0.3) == horizon == cpu_env.max_eval_horizon
     zero = lambda obs: np.zeros(cpu_env.character.action_size)
     ep = cpu_env.episode(zero, 0.3)
-    assert ep["failed"] and ep["steps"] < 600  # absolute zero targets: the humanoid falls
-    assert ep["nr"] == pytest.approx(ep["reward"] / 600)
+    assert ep["failed"] and ep["steps"] < horizon  # absolute zero targets: the humanoid falls
+    assert ep["nr"] == pytest.approx(ep["reward"] / horizon)
