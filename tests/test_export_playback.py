@@ -34,7 +34,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="module")
 def config():
-    # A converged contact solve: with the cpu preset's single Newton iteration, MJX and MuJoCo C
+    # A converged contact solve: with the cpu preset's 4 Newton iterations, MJX and MuJoCo C
     # stop at different unconverged solutions, and the physics (not playback) would differ.
     return config_lib.make_config("cpu", {"env.solver_iterations": 30, "env.ls_iterations": 30})
 

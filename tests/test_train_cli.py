@@ -30,9 +30,9 @@ REPO = Path(__file__).resolve().parent.parent
 #   then runs to the clip's end (about 0.75 s on average), so NR measures how well the policy
 #   tracks while it stands; on a looping clip NR is the fraction of 20 s survived, which a few
 #   hundred thousand samples do not move;
-# - env.solver_iterations=4 / ls_iterations=8: with the cpu preset's 1 solver iteration the
-#   humanoid is unstable even when PD-tracking the reference exactly (it bounces up to metres
-#   within 1-2 s), so nothing can be learned;
+# - env.solver_iterations=4 / ls_iterations=8 (the cpu preset's, pinned here): with 1 solver
+#   iteration the humanoid is unstable even when PD-tracking the reference exactly (it bounces up
+#   to metres within 1-2 s), so nothing can be learned;
 # - env.action_mode=absolute (DeepMimic's PD targets): with residual targets the untrained policy
 #   (zero residual = the reference pose) already scores NR ~0.98 on this clip, leaving nothing
 #   to show; absolute targets start from a poor pose that PPO visibly improves;
