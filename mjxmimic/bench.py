@@ -2,6 +2,7 @@
 
 physics_only: PD substeps and mjx.step, no policy, reward or resets (the limit).
 env_step:     the full environment step (PD, physics, kinematics, observation, reward, resets).
+train_loop:   the whole PPO iteration (rollout, GAE, updates) as training runs it.
 tracking:     how well plain PD tracking of the reference (residual action 0) survives at a physics
               rate and solver setting: the stability and quality side of the physics-rate choice.
 Compile time and steady state are timed apart; the steady-state figure is the median of repeats.
@@ -165,16 +166,6 @@ def train_loop(env: ImitationEnv, config: Config, iterations: int = 5) -> Measur
     from mjxmimic.ppo import make_trainer
 
     trainer = make_trainer(env, config)
-    state = trainer.init(0)
-    start = time.perf_counter()
-    state, metrics = trainer.train_step(state)
-    jax.block_until_ready(metrics)
-    compile_s = time.perf_counter() - start
-    times = []
-    for _ in range(iterations):
-        start = time.perf_counter()
-        state, metrics = trainer.train_step(state)
-        jax.block_until_ready(metrics)
-        times.append(time.perf_counter() - start)
-    m = _measurement("train_loop", env, config.ppo.num_envs, config.ppo.unroll_length, compile_s, times)
-    return m
+    step = lambda out: trainer.train_step(out[0])  # (state, metrics) -> (state, metrics)
+    compile_s, times, _ = _time(step, (trainer.init(0), None), iterations)
+    return _measurement("train_loop", env, config.ppo.num_envs, config.ppo.unroll_length, compile_s, times)

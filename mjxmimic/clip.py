@@ -403,6 +403,11 @@ def resolve_clip(source: str | Path, user_dir: str | Path | None = None) -> Path
                     f"{PREFIX}{source}.txt in: {looked}")
 
 
+def clip_label(source: str) -> str:
+    """A clip NAME as it is, a PATH as its file stem: the clip part of run names."""
+    return Path(source).stem if ("/" in source or source.endswith(SUFFIXES)) else source
+
+
 def list_clips(user_dir: str | Path | None = None) -> list[tuple[str, Path, str]]:
     """(name, path, source label) of every clip that `resolve_clip` can find by name.
 

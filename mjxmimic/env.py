@@ -30,6 +30,7 @@ from mjxmimic.reward import KINDS, reward
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
+
 class ImitationEnv(Env):
     """One clip, one character; unbatched (vmap it)."""
 
@@ -108,9 +109,8 @@ class ImitationEnv(Env):
         fresh = self.reset(key)
         done = nxt.done > 0
         pick = lambda a, b: jax.tree.map(lambda x, y: jnp.where(done, x, y), a, b)
-        info = dict(nxt.info, rng=rng, time=jnp.where(done, fresh.info["time"], nxt.info["time"]),
-                    steps=jnp.where(done, 0, nxt.info["steps"]),
-                    root_offset=jnp.where(done, fresh.info["root_offset"], nxt.info["root_offset"]))
+        restart = ("time", "steps", "root_offset")
+        info = dict(nxt.info, rng=rng, **pick({k: fresh.info[k] for k in restart}, {k: nxt.info[k] for k in restart}))
         return nxt.replace(pipeline_state=pick(fresh.pipeline_state, nxt.pipeline_state),
                            obs=jnp.where(done, fresh.obs, nxt.obs), info=info)
 

@@ -55,7 +55,15 @@ class MetricsLog:
 
 
 def read(run_dir: Path) -> list[dict]:
-    path = Path(run_dir) / "metrics.jsonl"
-    if not path.is_file():
+    """Every record of RUN/metrics.jsonl ([] when there is none); a line cut short by a crash is skipped."""
+    try:
+        text = (Path(run_dir) / "metrics.jsonl").read_text()
+    except OSError:
         return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = []
+    for line in text.splitlines():
+        try:
+            rows.append(json.loads(line))
+        except ValueError:
+            continue
+    return rows

@@ -165,12 +165,17 @@ class Scene:
         self.renderer.close()
 
 
+def check_video_path(path: Path) -> None:
+    """Fail early, before anything is rendered, on an --out that is not a video file name."""
+    if Path(path).suffix.lower() not in VIDEO_SUFFIXES:
+        raise UserError(f"--out {path}: expected a video file name ending in .mp4")
+
+
 def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
     """Write frames to an mp4 (H.264); returns the number of frames. Nothing half-written."""
     imageio = _imageio()
     path = Path(path)
-    if path.suffix.lower() not in VIDEO_SUFFIXES:
-        raise UserError(f"--out {path}: expected a video file name ending in .mp4")
+    check_video_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".part" + path.suffix)
     n = 0

@@ -71,7 +71,9 @@ from pathlib import Path
 from typing import Any
 
 from mjxmimic import config as config_lib
+from mjxmimic.clip import clip_label
 from mjxmimic.errors import UserError
+from mjxmimic.metrics_log import read as read_metrics
 
 SPEC_FIELDS = ("name", "description", "preset", "clip", "clips", "grid", "runs", "seeds", "set", "out")
 GPU_ENV_VAR = "MJXMIMIC_SWEEP_GPUS"
@@ -151,10 +153,6 @@ def _label_value(value: Any) -> str:
         return "x".join(_label_value(v) for v in value)
     text = str(value)
     return Path(text).stem if "/" in text else text
-
-
-def _clip_label(clip: str) -> str:
-    return Path(clip).stem if ("/" in clip or clip.endswith((".txt", ".json"))) else clip
 
 
 def _short_hash(obj: Any) -> str:
@@ -323,7 +321,7 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
                 for ei, entry in enumerate(entries):
                     own = {**dict(zip(keys, combo)), **entry}
                     args = {k: cli_value(v) for k, v in {**common, **own}.items()}
-                    label = "-".join([_clip_label(clip)] + [f"{label_key[k]}={_label_value(v)}"
+                    label = "-".join([clip_label(clip)] + [f"{label_key[k]}={_label_value(v)}"
                                                             for k, v in own.items()] + [f"s{seed}"])
                     label = _SAFE.sub("_", label).strip("._") or "run"
                     identity = json.dumps([clip, sorted(args.items()), seed])
@@ -521,7 +519,7 @@ class State:
             self._write()
 
     def _write(self) -> None:
-        self.data["updated"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+        self.data["updated"] = _now()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_suffix(".json.tmp")
         tmp.write_text(json.dumps(self.data, indent=2) + "\n")
@@ -765,21 +763,6 @@ def _now() -> str:
 
 
 # ---- the report -------------------------------------------------------------------------------
-
-def read_metrics(run_dir: Path) -> list[dict]:
-    path = run_dir / "metrics.jsonl"
-    rows = []
-    try:
-        text = path.read_text()
-    except OSError:
-        return rows
-    for line in text.splitlines():
-        try:
-            rows.append(json.loads(line))
-        except ValueError:
-            continue  # a line cut short by a crash
-    return rows
-
 
 def run_row(spec: Spec, run: RunSpec, record: dict) -> dict:
     """One results row: status, NR (the final evaluation, else the latest one), fall rate, samples,

@@ -150,12 +150,12 @@ def run_render(args: argparse.Namespace) -> int:
     """Headless video of the clip's reference motion (kinematic; mjxmimic.render)."""
     from pathlib import Path
 
-    from mjxmimic.commands.render import _check_out, _check_size
-    from mjxmimic.render import render_clip, setup_gl
+    from mjxmimic.commands.render import _check_size
+    from mjxmimic.render import check_video_path, render_clip, setup_gl
 
     _check_size(args.width, args.height)
     if args.out is not None:
-        _check_out(Path(args.out))
+        check_video_path(Path(args.out))
     if args.seconds is not None and args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
     if args.fps <= 0:

@@ -40,14 +40,6 @@ def load_policy(source: Path):
     return export.read(source)
 
 
-def _check_out(path: Path) -> None:
-    from mjxmimic.errors import UserError
-    from mjxmimic.render import VIDEO_SUFFIXES
-
-    if Path(path).suffix.lower() not in VIDEO_SUFFIXES:
-        raise UserError(f"--out {path}: expected a video file name ending in .mp4")
-
-
 def _check_size(width: int, height: int) -> None:
     from mjxmimic.errors import UserError
 
@@ -58,10 +50,10 @@ def _check_size(width: int, height: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.errors import UserError
-    from mjxmimic.render import render_policy, setup_gl
+    from mjxmimic.render import check_video_path, render_policy, setup_gl
 
     _check_size(args.width, args.height)
-    _check_out(args.out)
+    check_video_path(args.out)
     if args.seconds is not None and args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
     setup_gl()  # before anything imports mujoco, where possible

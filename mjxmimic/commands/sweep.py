@@ -71,8 +71,7 @@ def run(args: argparse.Namespace) -> int:
         _echo(f"sweep {spec.name}: {len(plans)} runs in {spec.out} ({counts['start']} to start, "
               f"{counts['resume']} to resume, {counts['skip']} finished); {mode}")
         for p in sorted(plans, key=lambda p: p.run.order):
-            action = {"skip": "skip", "resume": "resume", "start": "start"}[p.action]
-            _echo(f"  {p.run.name}: {action} ({p.why})")
+            _echo(f"  {p.run.name}: {p.action} ({p.why})")
             if p.action != "skip":
                 _echo(f"    mjxmimic train {shlex.join(sweep.train_args(spec, p, args.max_seconds))}")
         return 0

@@ -50,10 +50,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 # ---- configuration and the run folder ---------------------------------------------------------
 
-def _clip_label(name: str) -> str:
-    return Path(name).stem if ("/" in name or name.endswith((".txt", ".json"))) else name
-
-
 def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool]:
     """(config, run folder, resuming) from the command line; nothing is written."""
     overrides = config_lib.parse_set_args(args.overrides or [])
@@ -88,7 +84,9 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
     elif args.name is not None:
         run_dir = Path("runs") / args.name
     else:
-        run_dir = Path("runs") / f"{_clip_label(config.clip.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
+        from mjxmimic.clip import clip_label
+
+        run_dir = Path("runs") / f"{clip_label(config.clip.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     if (run_dir / "config.json").exists():
         raise UserError(f"{run_dir}: already holds a run (continue it with --resume {run_dir})")
     return config, run_dir, False
