@@ -1,6 +1,6 @@
 """Plot samples/s against env count from `mjxmimic bench --out` JSON files (one line per kind).
 
-    python benchmarks/plot_throughput.py benchmarks/results/bench_gpu_h200.json --out benchmarks/throughput.png
+    python benchmarks/plot_throughput.py benchmarks/results/bench_gpu_h200_preset.json --out benchmarks/throughput.png
 """
 
 from __future__ import annotations
@@ -21,14 +21,17 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     fig, ax = plt.subplots(figsize=(6, 4))
-    for path in args.results:
+    colors = {"physics_only": "tab:blue", "env_step": "tab:orange", "train_loop": "tab:green"}
+    for path, style in zip(args.results, ("-", "--", ":", "-.")):  # one line style per file
         data = json.loads(path.read_text())
         device = data["info"]["device"]
-        for kind in ("physics_only", "env_step", "train_loop"):
+        for kind, color in colors.items():
             rows = sorted((r for r in data["rows"] if r["kind"] == kind), key=lambda r: r["num_envs"])
             if rows:
                 ax.plot([r["num_envs"] for r in rows], [r["samples_per_s"] for r in rows], marker="o",
-                        label=f"{kind} ({device}, {rows[0]['physics_hz']} Hz, {rows[0]['solver_iterations']} it)")
+                        color=color, linestyle=style,
+                        label=f"{kind} ({device}, {rows[0]['physics_hz']} Hz, "
+                              f"{rows[0]['solver_iterations']}x{rows[0]['ls_iterations']} it)")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xlabel("parallel environments")

@@ -5,7 +5,7 @@
 # 16 MB file limit).
 #   bash experiments/device_train.sh SECONDS "NAME|ARGS..." ["NAME|ARGS..." ...]
 # ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with ARGS, which
-# may then only be --set run.* or ppo.learning_rate).
+# may then only be --set run.* or ppo.learning_rate* keys).
 set -u
 seconds=$1; shift
 export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))")

@@ -27,8 +27,8 @@ class ClipConfig:
 class EnvConfig:
     control_hz: int = 30
     physics_hz: int = 240  # must be a multiple of control_hz
-    solver_iterations: int = 4
-    ls_iterations: int = 8
+    solver_iterations: int = 4  # Newton; 3 already changes a trained walk's NR (0.92 -> 0.75)
+    ls_iterations: int = 4  # line search; 4 instead of 8: walk NR 0.916 vs 0.919, 1.14x the samples/s
     episode_seconds: float = 20.0  # time limit (a timeout, not a failure)
     rsi: bool = True  # reset to a random reference time; else to the clip's start
     early_termination: bool = True
@@ -55,6 +55,10 @@ class PPOConfig:
     num_minibatches: int = 8
     num_epochs: int = 4
     learning_rate: float = 3e-4
+    # "constant", or "linear" / "cosine": from learning_rate at 0 samples down to
+    # learning_rate_final at run.total_samples (a fixed sample budget, e.g. one device call).
+    learning_rate_schedule: str = "constant"
+    learning_rate_final: float = 3e-5
     entropy_cost: float = 0.0
     discounting: float = 0.95
     gae_lambda: float = 0.95
@@ -89,9 +93,11 @@ class Config:
     run: RunConfig = RunConfig()
 
 
+LR_SCHEDULES = ("constant", "linear", "cosine")
+
 PRESETS: dict[str, dict[str, Any]] = {
     # Small enough that 2 CPU cores show learning within three minutes (measured on the default
-    # clip: NR 0.20 -> 0.25, survival 0.76 -> 0.96 s, 2 min 30 s). Two choices make it visible
+    # clip: NR 0.20 -> 0.24, survival 0.76 -> 1.06 s, 2 min 24 s). Two choices make it visible
     # in 80 k samples: 2 s episodes, which are also the NR horizon of a looping clip here (not
     # EVALUATION.md's 20 s: compare no cpu NR with a gpu NR), and DeepMimic's absolute PD targets,
     # whose untrained policy starts far from the clip (with residual targets it already tracks and
@@ -113,13 +119,16 @@ PRESETS: dict[str, dict[str, Any]] = {
         "run.eval_episodes": 16,
         "run.eval_at_start": True,  # the untrained policy's NR, to compare with
     },
-    # The real thing, on one GPU: 240 Hz physics with 4 Newton iterations (the physics study),
-    # 8192 envs x 16 steps = 131072 samples per iteration, the batch of 4096 x 32 gathered 1.2x
-    # faster (benchmarks/RESULTS.md); 16384 x 8 was faster still but learned unstably
-    # (experiments/README.md).
+    # The real thing, on one GPU: 240 Hz physics with 4 Newton x 4 line-search iterations (the
+    # physics study), 8192 envs x 16 steps = 131072 samples per iteration, the batch of 4096 x 32
+    # gathered 1.2x faster (benchmarks/RESULTS.md; 16384 x 8 was faster still but learned
+    # unstably); 48 M samples with a cosine learning rate, which fit one 10-minute call on an H200
+    # (walk: NR 0.865 in 539 s, experiments/README.md).
     "gpu": {
         "ppo.num_envs": 8192,
         "ppo.unroll_length": 16,
+        "ppo.learning_rate_schedule": "cosine",
+        "run.total_samples": 48_000_000,
         "run.eval_every": 10_000_000,
         "run.checkpoint_every": 10_000_000,
     },
@@ -219,6 +228,9 @@ def validate(config: Config) -> None:
          f"must divide ppo.num_envs ({ppo.num_envs})"),
         (ppo.num_epochs >= 1, "ppo.num_epochs", "must be at least 1"),
         (ppo.learning_rate > 0, "ppo.learning_rate", "must be positive"),
+        (ppo.learning_rate_schedule in LR_SCHEDULES, "ppo.learning_rate_schedule",
+         f"must be one of {', '.join(LR_SCHEDULES)}"),
+        (ppo.learning_rate_final > 0, "ppo.learning_rate_final", "must be positive"),
         (0 < ppo.discounting <= 1, "ppo.discounting", "must be in (0, 1]"),
         (0 <= ppo.gae_lambda <= 1, "ppo.gae_lambda", "must be in [0, 1]"),
         (ppo.init_action_std > 0, "ppo.init_action_std", "must be positive"),

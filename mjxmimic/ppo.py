@@ -3,7 +3,7 @@
 Pieces taken from Brax (brax 0.14.2): `ppo.networks.make_ppo_networks` (policy/value MLPs, the
 tanh-squashed Gaussian), `ppo.losses.compute_ppo_loss` (GAE, clipped surrogate, value and entropy
 losses), `acting.generate_unroll` (the rollout scan), `acme.running_statistics` (observation
-normaliser) and `gradients.gradient_update_fn`; optax adam after global-norm gradient clipping.
+normaliser) and `gradients.gradient_update_fn`; optax adam after global-norm gradient clipping, its rate following ppo.learning_rate_schedule.
 Brax's `ppo.train` monolith, its pmap and its Episode/AutoReset wrappers are not used: the
 environment resets itself (RSI draws a fresh start time on every reset).
 
@@ -131,6 +131,24 @@ def _init_output_layer(policy_params: dict, action_size: int, init_std: float) -
                             jnp.full_like(bias[action_size:], _softplus_inverse(init_std - MIN_STD))])
     new_layers = {**layers, last: {"kernel": kernel, "bias": bias}}
     return {**policy_params, "params": new_layers}
+
+
+def learning_rate_at(config: Config, samples: jax.Array) -> jax.Array:
+    """The learning rate after `samples` samples (ppo.learning_rate_schedule over run.total_samples)."""
+    cfg = config.ppo
+    start, final = cfg.learning_rate, cfg.learning_rate_final
+    progress = jnp.clip(jnp.asarray(samples, jnp.float32) / config.run.total_samples, 0.0, 1.0)
+    if cfg.learning_rate_schedule == "linear":
+        return start + (final - start) * progress
+    if cfg.learning_rate_schedule == "cosine":
+        return final + 0.5 * (start - final) * (1.0 + jnp.cos(jnp.pi * progress))
+    return jnp.asarray(start, jnp.float32)
+
+
+def make_optimizer(config: Config, learning_rate: float | jax.Array) -> optax.GradientTransformation:
+    """Adam after global-norm clipping. The rate is a plain scale, so the optimiser state is the
+    same for every schedule (and for checkpoints written before schedules existed)."""
+    return optax.chain(optax.clip_by_global_norm(config.ppo.max_grad_norm), optax.adam(learning_rate))
 
 
 def export_params(ts: TrainState) -> dict:
@@ -261,7 +279,11 @@ class Trainer:
             ppo_losses.compute_ppo_loss, ppo_network=self.networks, entropy_cost=cfg.entropy_cost,
             discounting=cfg.discounting, reward_scaling=cfg.reward_scaling, gae_lambda=cfg.gae_lambda,
             clipping_epsilon=cfg.clipping_epsilon, normalize_advantage=True)
-        update = gradients.gradient_update_fn(loss_fn, self.optimizer, pmap_axis_name=None, has_aux=True)
+        samples = ts.env_steps.hi.astype(jnp.float32) * 2.0**32 + ts.env_steps.lo.astype(jnp.float32)
+        learning_rate = learning_rate_at(self.config, samples)
+        metrics["ppo/learning_rate"] = learning_rate
+        update = gradients.gradient_update_fn(loss_fn, make_optimizer(self.config, learning_rate),
+                                              pmap_axis_name=None, has_aux=True)
 
         def minibatch_step(carry, batch):
             params, opt_state, k = carry
@@ -333,7 +355,7 @@ def make_trainer(env, config: Config) -> Trainer:
         raise UserError(f"config key 'ppo.init_action_std': must be above {MIN_STD} (the minimum std)")
 
     networks = make_networks(env.observation_size, env.action_size, config)
-    optimizer = optax.chain(optax.clip_by_global_norm(cfg.max_grad_norm), optax.adam(cfg.learning_rate))
+    optimizer = make_optimizer(config, cfg.learning_rate)
     mesh = Mesh(np.array(devices), (BATCH_AXIS,))
     trainer = Trainer(env=env, config=config, networks=networks, optimizer=optimizer, mesh=mesh,
                       num_devices=d, samples_per_iteration=cfg.num_envs * cfg.unroll_length)

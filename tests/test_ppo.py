@@ -13,7 +13,7 @@ import pytest
 
 from mjxmimic.config import make_config
 from mjxmimic.errors import UserError
-from mjxmimic.ppo import MIN_STD, export_params, make_trainer
+from mjxmimic.ppo import MIN_STD, export_params, learning_rate_at, make_trainer
 from standin_env import StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
@@ -75,6 +75,33 @@ def test_train_step_learns_without_recompiling(trainer):
         assert np.isfinite(float(metrics[key])), key
     assert np.mean(rewards[-5:]) > np.mean(rewards[:5]) + 0.3  # the stand-in is easy
     assert float(metrics["fall_rate"]) < float(np.mean(rewards[:1]))
+
+
+@pytest.mark.parametrize("schedule, middle", [("constant", 1e-3), ("linear", 5.5e-4), ("cosine", 5.5e-4)])
+def test_learning_rate_schedule(schedule, middle):
+    config = make_config("cpu", {"ppo.learning_rate": 1e-3, "ppo.learning_rate_final": 1e-4,
+                                 "ppo.learning_rate_schedule": schedule, "run.total_samples": 1000})
+    rates = [float(learning_rate_at(config, s)) for s in (0, 250, 500, 1000, 5000)]
+    assert rates[0] == pytest.approx(1e-3)
+    assert rates[2] == pytest.approx(middle)
+    assert rates[3] == pytest.approx(1e-3 if schedule == "constant" else 1e-4)
+    assert rates[4] == pytest.approx(rates[3])  # held after run.total_samples
+    if schedule == "cosine":
+        assert rates[1] > 1e-4 + 0.75 * 9e-4  # slow start, unlike linear
+    with pytest.raises(UserError, match="ppo.learning_rate_schedule"):
+        make_config("cpu", {"ppo.learning_rate_schedule": "step"})
+
+
+def test_train_step_follows_the_schedule():
+    config = make_config("cpu", {"ppo.learning_rate_schedule": "linear", "run.total_samples": 1024})
+    trainer = make_trainer(StandInEnv(), config)
+    ts = trainer.init(0)
+    rates = []
+    for _ in range(3):
+        ts, metrics = trainer.train_step(ts)
+        rates.append(float(metrics["ppo/learning_rate"]))
+    assert rates == pytest.approx([1e-3, 1e-3 - 0.5 * (1e-3 - 3e-5), 3e-5], rel=1e-5)  # 512 samples per step
+    assert trainer.train_step._cache_size() == 1
 
 
 def test_donates_the_input_state(trainer):

@@ -30,7 +30,7 @@ REPO = Path(__file__).resolve().parent.parent
 #   then runs to the clip's end (about 0.75 s on average), so NR measures how well the policy
 #   tracks while it stands; on a looping clip NR is the fraction of 20 s survived, which a few
 #   hundred thousand samples do not move;
-# - env.solver_iterations=4 / ls_iterations=8 (the cpu preset's, pinned here): with 1 solver
+# - env.solver_iterations=4 / ls_iterations=8 (pinned, as when these margins were set): with 1 solver
 #   iteration the humanoid is unstable even when PD-tracking the reference exactly (it bounces up
 #   to metres within 1-2 s), so nothing can be learned;
 # - env.action_mode=absolute (DeepMimic's PD targets): with residual targets the untrained policy
@@ -154,6 +154,8 @@ def test_resume_continues_from_the_saved_env_steps(tmp_path):
 
     config, _, resuming = resume_with("ppo.learning_rate=1e-4")  # a fine-tuning phase
     assert resuming and config.ppo.learning_rate == 1e-4
+    config, _, _ = resume_with("ppo.learning_rate_schedule=cosine", "run.total_samples=20480")  # a decay
+    assert config.ppo.learning_rate_schedule == "cosine" and config.run.total_samples == 20480
     with pytest.raises(UserError, match="ppo.num_envs"):
         resume_with("ppo.num_envs=8")
 

@@ -38,19 +38,19 @@ def run(args: argparse.Namespace) -> int:
         cfg = config_lib.apply_overrides(base, {"ppo.num_envs": n})
         env = ImitationEnv(cfg, character, clips)
         for kind in args.kinds:
-            if kind == "train_loop":
-                m = bench.train_loop(env, cfg)
+            if kind == "train_loop":  # 3 iterations once one holds a million samples
+                m = bench.train_loop(env, cfg, iterations=3 if n * cfg.ppo.unroll_length >= 2**20 else 5)
             else:
-                m = getattr(bench, kind)(env, n)
+                m = getattr(bench, kind)(env, n, steps=bench.steps_for(n))
             rows.append(dataclasses.asdict(m))
             print(json.dumps(rows[-1]), flush=True)
             if args.out:
                 args.out.parent.mkdir(parents=True, exist_ok=True)
                 args.out.write_text(json.dumps({"info": bench.environment_info(), "preset": args.preset,
                                                 "overrides": overrides, "rows": rows}, indent=1))
-    print(f"{'kind':13} {'envs':>6} {'hz':>4} {'iters':>5} {'samples/s':>11} {'compile s':>9} {'peak MiB':>9}")
+    print(f"{'kind':13} {'envs':>6} {'hz':>4} {'solver':>6} {'samples/s':>11} {'compile s':>9} {'peak MiB':>9}")
     for r in rows:
         mem = f"{r['peak_memory_bytes'] / 2**20:9.0f}" if r["peak_memory_bytes"] else f"{'-':>9}"
-        print(f"{r['kind']:13} {r['num_envs']:>6} {r['physics_hz']:>4} {r['solver_iterations']:>5} "
+        print(f"{r['kind']:13} {r['num_envs']:>6} {r['physics_hz']:>4} {r['solver_iterations']:>3}x{r['ls_iterations']:<2} "
               f"{r['samples_per_s']:>11,.0f} {r['compile_s']:>9.1f} {mem}")
     return 0

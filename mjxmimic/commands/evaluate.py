@@ -21,7 +21,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
 
 
-def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env=None) -> dict:
+def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env=None,
+                 write: bool = True) -> dict:
+    """NR of the run's latest checkpoint, in `env` if given (e.g. other physics settings), else
+    in the run's own; `write`: also save it as RUN/eval.json."""
     from mjxmimic import checkpoint
     from mjxmimic import config as config_lib
 
@@ -50,7 +53,8 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
         result["time_to_skill_s"] = meta["time_to_skill_s"]
     result["checkpoint"] = step
     result["clip"] = config.clip.name
-    (run_dir / "eval.json").write_text(json.dumps(result, indent=2) + "\n")
+    if write:
+        (run_dir / "eval.json").write_text(json.dumps(result, indent=2) + "\n")
     return result
 
 

@@ -2,7 +2,7 @@
 
     mjxmimic train [--clip NAME|PATH] [--preset cpu|gpu] [--set section.key=value ...]
                    [--out DIR] [--seed N] [--name NAME]
-    mjxmimic train --resume DIR [--set run.key=value ...] [--set ppo.learning_rate=X]
+    mjxmimic train --resume DIR [--set run.key=value ...] [--set ppo.learning_rate*=X]
 
 Run folder (default runs/<clip>-<timestamp>/, runs/<NAME>/ with --name, exactly DIR with --out):
     config.json    the resolved config, written before training starts
@@ -60,10 +60,11 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         run_dir = args.resume
         if not run_dir.is_dir():
             raise UserError(f"{run_dir}: run folder not found")
-        # The learning rate may drop for a fine-tuning phase: Adam's state does not depend on it.
-        bad = [k for k in overrides if not k.startswith("run.") and k != "ppo.learning_rate"]
+        # The learning rate and its schedule may change (say, a fine-tuning phase): Adam's state
+        # does not depend on them.
+        bad = [k for k in overrides if not k.startswith(("run.", "ppo.learning_rate"))]
         if bad:
-            raise UserError(f"--set {bad[0]}: only run.* keys and ppo.learning_rate may change on --resume")
+            raise UserError(f"--set {bad[0]}: only run.* and ppo.learning_rate* keys may change on --resume")
         from mjxmimic import checkpoint
 
         if checkpoint.latest_checkpoint(run_dir) is None:
