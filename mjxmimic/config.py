@@ -32,6 +32,11 @@ class EnvConfig:
     episode_seconds: float = 20.0  # time limit (a timeout, not a failure)
     rsi: bool = True  # reset to a random reference time; else to the clip's start
     early_termination: bool = True
+    # Training only: a step on which some body's centre is more than this far (m) from the
+    # reference's ends the episode as a failure, so that standing still while the reference flips
+    # is no better than falling (MimicKit's DeepMimic setup uses 1.0). 0 = off (DeepMimic's).
+    # NR evaluation ignores it: EVALUATION.md ends episodes on falls only.
+    pose_termination_m: float = 0.0
     max_joint_velocity: float = 100.0  # beyond this (or NaN) the state is discarded and reset
     # "residual": PD targets = reference pose turned by the action (experiments/sweeps: NR 0.49 vs
     # 0.40 for walk after 10 M samples); "absolute": DeepMimic's, the action spans each joint's range.
@@ -219,6 +224,7 @@ def validate(config: Config) -> None:
         (env.ls_iterations >= 1, "env.ls_iterations", "must be at least 1"),
         (env.episode_seconds > 0, "env.episode_seconds", "must be positive"),
         (env.max_joint_velocity > 0, "env.max_joint_velocity", "must be positive"),
+        (env.pose_termination_m >= 0, "env.pose_termination_m", "must be >= 0 (0 = off)"),
         (env.action_mode in ("absolute", "residual"), "env.action_mode", "must be 'absolute' or 'residual'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),

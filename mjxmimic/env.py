@@ -3,8 +3,9 @@
 reset: reference state at a random clip time (RSI), drawn afresh on every reset.
 step:  action -> PD targets -> `substeps` physics steps (PD law + mjx.step under lax.scan)
        -> observation, reward terms (sim and reference through the same MuJoCo kinematics),
-       done. When an episode ends (fall, clip end, time limit, or a NaN/exploding state) the env
-       resets itself with a new RSI draw: Brax's AutoResetWrapper would replay one cached start.
+       done. When an episode ends (fall, lost track of the reference if env.pose_termination_m is
+       set, clip end, time limit, or a NaN/exploding state) the env resets itself with a new RSI
+       draw: Brax's AutoResetWrapper would replay one cached start.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ class ImitationEnv(Env):
         slots = np.asarray(probe._impl.contact.geom)
         self._fall_slots = jnp.asarray(fall_geom[slots].any(axis=1))
         self.fall_contact = spec
-        self._metric_keys = ["reward", "fell"] + [f"reward/{t}" for t in KINDS[config.reward.kind]]
+        self._metric_keys = ["reward", "fell", "lost_track"] + [f"reward/{t}" for t in KINDS[config.reward.kind]]
         self._metric_keys += ["error/pose", "error/end_effector"]
 
     # Brax Env interface -------------------------------------------------------------------
@@ -115,8 +116,9 @@ class ImitationEnv(Env):
                            obs=jnp.where(done, fresh.obs, nxt.obs), info=info)
 
     # The physics and the grading ------------------------------------------------------------
-    def transition(self, state: State, action: jax.Array) -> State:
-        """One control step without reset (evaluation uses this directly)."""
+    def transition(self, state: State, action: jax.Array, pose_termination: bool = True) -> State:
+        """One control step without reset. Evaluation calls it directly, with
+        pose_termination=False (a training-only early termination)."""
         cfg = self.config.env
         t = state.info["time"] + self.control_dt
         ref_qpos, ref_qvel = motion_lib.sample(self.motion, 0, t, jnp)  # the unshifted root
@@ -143,15 +145,19 @@ class ImitationEnv(Env):
 
         finite = jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel))
         bad = ~finite | jnp.any(jnp.abs(data.qvel) > cfg.max_joint_velocity)
+        lost = jnp.zeros((), bool)
+        if pose_termination and cfg.pose_termination_m > 0:
+            gap = jnp.linalg.norm(sim_kin.xipos[1:] - ref_kin.xipos[1:], axis=-1)
+            lost = jnp.max(gap) > cfg.pose_termination_m
         steps = state.info["steps"] + 1
         timeout = steps >= self.max_steps
         clip_end = (not self.loop) & (t >= self.clip_duration - 1e-4)
-        failed = fell | bad
+        failed = fell | bad | lost
         done = failed | timeout | clip_end
         r = jnp.where(failed, 0.0, r)
         obs = observation(sim_kin, motion_lib.phase(self.motion, 0, t, jnp), jnp)
         obs = jnp.where(bad, 0.0, jnp.nan_to_num(obs))
-        metrics = dict(metrics, reward=r, fell=fell.astype(jnp.float32))
+        metrics = dict(metrics, reward=r, fell=fell.astype(jnp.float32), lost_track=lost.astype(jnp.float32))
         metrics = {k: jnp.where(bad, 0.0, jnp.nan_to_num(v)) if k.startswith("error") else v
                    for k, v in metrics.items()}
         info = dict(state.info, time=t, steps=steps, root_offset=offset,

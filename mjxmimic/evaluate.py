@@ -2,7 +2,8 @@
 
 - `run.eval_episodes` episodes (64 by default), vmapped; episode i starts at clip time
   t_i ~ U[0, clip_duration) from the reference state (`env.reset_at`, i.e. RSI).
-- Deterministic policy (the mean action, tanh(loc)); no pushes; `env.transition` (no auto-reset).
+- Deterministic policy (the mean action, tanh(loc)); no pushes; `env.transition` (no auto-reset,
+  and none of the training-only env.pose_termination_m).
 - Horizon H_i = env.eval_horizon(t_i) steps: 600 (20 s at 30 Hz) for a looping clip, to the
   clip's end otherwise. The rollout is one fixed-length `lax.scan` of env.max_eval_horizon steps;
   steps at or past H_i are masked.
@@ -54,7 +55,7 @@ def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int) -> dic
         state, alive, acc = carry
         key = jax.random.fold_in(k_policy, k)
         action = policy_fn(state.obs, key)
-        nxt = jax.vmap(env.transition)(state, action)
+        nxt = jax.vmap(lambda s, a: env.transition(s, a, pose_termination=False))(state, action)
         active = alive & (k < horizon)
         fell = nxt.metrics["fell"] > 0
         done = nxt.done > 0

@@ -72,7 +72,7 @@ class StandInEnv:
         t = jax.random.uniform(key, (), maxval=self.clip_duration)
         return self.reset_at(rng, t)
 
-    def transition(self, state: State, action) -> State:
+    def transition(self, state: State, action, pose_termination: bool = True) -> State:  # no poses here
         x, t = state.info["x"], state.info["t"]
         action = jnp.clip(action, -1.0, 1.0)
         x = x + 0.5 * (action - x)

@@ -149,6 +149,26 @@ def test_early_termination_on_chest_contact_not_on_feet(env, transition):
     assert float(after.reward) == 0.0 and float(after.info["truncation"]) == 0.0
 
 
+def test_pose_termination_ends_training_episodes_that_lose_the_reference(env, transition):
+    standing = env.reset_at(jax.random.PRNGKey(0), 0.5)
+    data = standing.pipeline_state
+    away = standing.replace(pipeline_state=data.replace(qpos=data.qpos.at[1].add(0.5)))  # 0.5 m aside
+    zero = jnp.zeros(env.action_size)
+    assert float(transition(away, zero).done) == 0.0  # off by default (DeepMimic's)
+
+    def strict(metres):
+        return ImitationEnv(apply_overrides(env.config, {"env.pose_termination_m": metres}), env.character, env.clips)
+
+    near, far = strict(0.3), strict(0.8)
+    after = jax.jit(near.transition)(away, zero)
+    assert float(after.metrics["lost_track"]) == 1.0 and float(after.done) == 1.0
+    assert float(after.metrics["fell"]) == 0.0 and float(after.reward) == 0.0
+    assert float(after.info["truncation"]) == 0.0  # a failure, not a timeout
+    assert float(jax.jit(far.transition)(away, zero).done) == 0.0
+    for_evaluation = jax.jit(lambda s, a: near.transition(s, a, pose_termination=False))(away, zero)
+    assert float(for_evaluation.done) == 0.0 and float(for_evaluation.reward) > 0.0
+
+
 def test_hundred_steps_on_four_envs_stay_finite(env):
     reset = jax.jit(jax.vmap(env.reset))
     step = jax.jit(jax.vmap(env.step))
