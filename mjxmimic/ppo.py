@@ -3,7 +3,8 @@
 Pieces taken from Brax (brax 0.14.2): `ppo.networks.make_ppo_networks` (policy/value MLPs, the
 tanh-squashed Gaussian), `ppo.losses.compute_ppo_loss` (GAE, clipped surrogate, value and entropy
 losses), `acting.generate_unroll` (the rollout scan), `acme.running_statistics` (observation
-normaliser) and `gradients.gradient_update_fn`; optax adam after global-norm gradient clipping, its rate following ppo.learning_rate_schedule.
+normaliser) and `gradients.gradient_update_fn`; optax adam after global-norm gradient clipping,
+its rate following ppo.learning_rate_schedule.
 Brax's `ppo.train` monolith, its pmap and its Episode/AutoReset wrappers are not used: the
 environment resets itself (RSI draws a fresh start time on every reset).
 
