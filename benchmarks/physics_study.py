@@ -70,8 +70,8 @@ def main() -> int:
                     if args.part == "tracking":
                         row.update(bench.tracking(env, n, args.seconds))
                     else:
-                        row["env_step"] = dataclasses.asdict(bench.env_step(env, n, steps=bench.steps_for(n)))
-                        row["physics_only"] = dataclasses.asdict(bench.physics_only(env, n, steps=bench.steps_for(n)))
+                        row["env_step"] = dataclasses.asdict(bench.env_step(env, n))
+                        row["physics_only"] = dataclasses.asdict(bench.physics_only(env, n))
                     rows.append(row)
                     print(json.dumps(row), flush=True)
                     write(args, rows)
@@ -117,9 +117,8 @@ def print_table(rows: list[dict], part: str) -> None:
     if part == "policy":
         print(f"{'clip':10} {'hz':>4} {'solver':>6} {'NR':>6} {'fall':>5} {'pose rad':>8} {'ee m':>6}  trained with")
         for r in rows:
-            print(f"{r['clip']:10} {r['physics_hz']:>4} {r['solver_iterations']:>3}x{r['ls_iterations']:<2} "
-                  f"{r['nr']:>6.3f} {r['fall_rate']:>5.2f} {r['pose_error_rad']:>8.3f} "
-                  f"{r['end_effector_error_m']:>6.3f}  {r['trained_with']}")
+            print(f"{r['clip']:10} {r['physics_hz']:>4} {bench.solver_label(r):>6} {r['nr']:>6.3f} {r['fall_rate']:>5.2f} "
+                  f"{r['pose_error_rad']:>8.3f} {r['end_effector_error_m']:>6.3f}  {r['trained_with']}")
     elif part == "tracking":
         print(f"{'clip':10} {'hz':>4} {'iters':>5} {'survival s':>10} {'all 4 s':>8} {'reward':>7} {'exploded':>8}")
         for r in rows:
@@ -130,8 +129,7 @@ def print_table(rows: list[dict], part: str) -> None:
               f"{'compile s':>9}")
         for r in rows:
             e, p = r["env_step"], r["physics_only"]
-            print(f"{r['num_envs']:>6} {r['physics_hz']:>4} {r['solver_iterations']:>3}x{r['ls_iterations']:<2} "
-                  f"{e['samples_per_s']:>14,.0f} "
+            print(f"{r['num_envs']:>6} {r['physics_hz']:>4} {bench.solver_label(r):>6} {e['samples_per_s']:>14,.0f} "
                   f"{p['samples_per_s']:>18,.0f} {e['samples_per_s'] / p['samples_per_s']:>6.2f} "
                   f"{e['compile_s']:>9.1f}")
 

@@ -91,8 +91,15 @@ def steps_for(num_envs: int) -> int:
     return max(4, min(32, 2**18 // num_envs))
 
 
-def physics_only(env: ImitationEnv, num_envs: int, steps: int = 32, repeats: int = 5) -> Measurement:
-    """PD substepping + mjx.step for `steps` control steps, targets fixed at the start pose."""
+def solver_label(row: dict) -> str:
+    """"4x4": Newton x line-search iterations of a Measurement row."""
+    return f"{row['solver_iterations']}x{row['ls_iterations']}"
+
+
+def physics_only(env: ImitationEnv, num_envs: int, steps: int | None = None, repeats: int = 5) -> Measurement:
+    """PD substepping + mjx.step for `steps` control steps (default `steps_for`), targets fixed
+    at the start pose."""
+    steps = steps or steps_for(num_envs)
     states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
     cfg = env.config.env
     zero = jnp.zeros(env.action_size)
@@ -114,8 +121,10 @@ def physics_only(env: ImitationEnv, num_envs: int, steps: int = 32, repeats: int
     return _measurement("physics_only", env, num_envs, steps, compile_s, times)
 
 
-def env_step(env: ImitationEnv, num_envs: int, steps: int = 32, repeats: int = 5) -> Measurement:
-    """The whole environment step (with resets) for `steps` control steps, zero actions."""
+def env_step(env: ImitationEnv, num_envs: int, steps: int | None = None, repeats: int = 5) -> Measurement:
+    """The whole environment step (with resets) for `steps` control steps (default `steps_for`),
+    zero actions."""
+    steps = steps or steps_for(num_envs)
     states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
     zero = jnp.zeros((num_envs, env.action_size))
     vstep = jax.vmap(env.step)
@@ -167,10 +176,13 @@ def with_settings(config: Config, physics_hz: int, iterations: int, ls_iteration
                                     "env.ls_iterations": ls_iterations})
 
 
-def train_loop(env: ImitationEnv, config: Config, iterations: int = 5) -> Measurement:
-    """Samples/s of the full PPO iteration (rollout, reward, resets, GAE, updates), steady state."""
+def train_loop(env: ImitationEnv, config: Config, iterations: int | None = None) -> Measurement:
+    """Samples/s of the full PPO iteration (rollout, reward, resets, GAE, updates), steady state;
+    5 timed iterations by default, 3 once one iteration holds a million samples."""
     from mjxmimic.ppo import make_trainer
 
+    if iterations is None:
+        iterations = 3 if config.ppo.num_envs * config.ppo.unroll_length >= 2**20 else 5
     trainer = make_trainer(env, config)
     step = lambda out: trainer.train_step(out[0])  # (state, metrics) -> (state, metrics)
     compile_s, times, _ = _time(step, (trainer.init(0), None), iterations)

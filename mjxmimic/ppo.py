@@ -167,7 +167,6 @@ class Trainer:
     env: Any
     config: Config
     networks: ppo_networks.PPONetworks
-    optimizer: optax.GradientTransformation
     mesh: Mesh
     num_devices: int
     samples_per_iteration: int
@@ -201,7 +200,7 @@ class Trainer:
         params = ppo_losses.PPONetworkParams(policy=policy, value=value)
         normalizer = running_statistics.init_state(
             jax.ShapeDtypeStruct((self.env.observation_size,), jnp.float32))
-        return params, self.optimizer.init(params), normalizer
+        return params, make_optimizer(self.config, cfg.learning_rate).init(params), normalizer
 
     def init(self, seed: int) -> TrainState:
         """A fresh TrainState, placed on the mesh (env batch sharded, the rest replicated)."""
@@ -356,9 +355,8 @@ def make_trainer(env, config: Config) -> Trainer:
         raise UserError(f"config key 'ppo.init_action_std': must be above {MIN_STD} (the minimum std)")
 
     networks = make_networks(env.observation_size, env.action_size, config)
-    optimizer = make_optimizer(config, cfg.learning_rate)
     mesh = Mesh(np.array(devices), (BATCH_AXIS,))
-    trainer = Trainer(env=env, config=config, networks=networks, optimizer=optimizer, mesh=mesh,
+    trainer = Trainer(env=env, config=config, networks=networks, mesh=mesh,
                       num_devices=d, samples_per_iteration=cfg.num_envs * cfg.unroll_length)
     trainer._batched_env = _BatchedEnv(env)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer.batch_sharded)

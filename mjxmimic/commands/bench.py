@@ -38,10 +38,7 @@ def run(args: argparse.Namespace) -> int:
         cfg = config_lib.apply_overrides(base, {"ppo.num_envs": n})
         env = ImitationEnv(cfg, character, clips)
         for kind in args.kinds:
-            if kind == "train_loop":  # 3 iterations once one holds a million samples
-                m = bench.train_loop(env, cfg, iterations=3 if n * cfg.ppo.unroll_length >= 2**20 else 5)
-            else:
-                m = getattr(bench, kind)(env, n, steps=bench.steps_for(n))
+            m = bench.train_loop(env, cfg) if kind == "train_loop" else getattr(bench, kind)(env, n)
             rows.append(dataclasses.asdict(m))
             print(json.dumps(rows[-1]), flush=True)
             if args.out:
@@ -51,6 +48,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"{'kind':13} {'envs':>6} {'hz':>4} {'solver':>6} {'samples/s':>11} {'compile s':>9} {'peak MiB':>9}")
     for r in rows:
         mem = f"{r['peak_memory_bytes'] / 2**20:9.0f}" if r["peak_memory_bytes"] else f"{'-':>9}"
-        print(f"{r['kind']:13} {r['num_envs']:>6} {r['physics_hz']:>4} {r['solver_iterations']:>3}x{r['ls_iterations']:<2} "
+        print(f"{r['kind']:13} {r['num_envs']:>6} {r['physics_hz']:>4} {bench.solver_label(r):>6} "
               f"{r['samples_per_s']:>11,.0f} {r['compile_s']:>9.1f} {mem}")
     return 0
