@@ -5,13 +5,20 @@
 # 16 MB file limit).
 #   bash experiments/device_train.sh SECONDS "NAME|ARGS..." ["NAME|ARGS..." ...]
 # ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with ARGS, which
-# may then only be --set run.* or ppo.learning_rate* keys).
+# may then only be --set run.* or ppo.learning_rate* keys). With at least as many GPUs as runs,
+# each run gets a GPU of its own (a sweep on a machine of several GPUs); else they share GPU 0.
 set -u
 seconds=$1; shift
-export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))")
+gpus=$(nvidia-smi -L 2>/dev/null | wc -l)
+export PYTHONUNBUFFERED=1
+if [ "$gpus" -ge $# ]; then own_gpu=1; export XLA_PYTHON_CLIENT_MEM_FRACTION=0.9
+else own_gpu=0; export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))"); fi
 pids=()
+i=0
 for spec in "$@"; do
   name=${spec%%|*}; args=${spec#*|}
+  if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=$i; else export CUDA_VISIBLE_DEVICES=0; fi
+  i=$((i + 1))
   if [ -d "runs/$name/checkpoints" ]; then
     python3 -m mjxmimic.cli train --resume "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
   else
@@ -36,5 +43,8 @@ PY
 done
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
   ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
+done
+for spec in "$@"; do  # into the archive: $OUT brings back at most 8 files
+  n=${spec%%|*}; mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
 done
 tar czf - runs | split -b 15M - "$OUT/runs.tgz."

@@ -108,7 +108,7 @@ def physics_only(env: ImitationEnv, num_envs: int, steps: int | None = None, rep
         targets = action_to_targets(env.layout, zero, data.qpos, cfg.action_mode, cfg.action_scale, jnp)
 
         def substep(d, _):
-            forces = pd_forces(env.layout, d.qpos, d.qvel, targets, env.physics_dt, jnp)
+            forces = pd_forces(env.layout, d.qpos, d.qvel, targets, env.physics_dt, jnp, cfg.torque_limit)
             return mjx.step(env.sys, d.replace(qfrc_applied=forces)), None
 
         def control(d, _):

@@ -37,6 +37,9 @@ class EnvConfig:
     # is no better than falling (MimicKit's DeepMimic setup uses 1.0). 0 = off (DeepMimic's).
     # NR evaluation ignores it: EVALUATION.md ends episodes on falls only.
     pose_termination_m: float = 0.0
+    # "total" (DeepMimic's): each joint's torque limit bounds its whole PD torque, damping included;
+    # "proportional": the law of runs made before this key existed (mjxmimic.control says why not).
+    torque_limit: str = "total"
     max_joint_velocity: float = 100.0  # beyond this (or NaN) the state is discarded and reset
     # "residual": PD targets = reference pose turned by the action (experiments/sweeps: NR 0.49 vs
     # 0.40 for walk after 10 M samples); "absolute": DeepMimic's, the action spans each joint's range.
@@ -226,6 +229,7 @@ def validate(config: Config) -> None:
         (env.max_joint_velocity > 0, "env.max_joint_velocity", "must be positive"),
         (env.pose_termination_m >= 0, "env.pose_termination_m", "must be >= 0 (0 = off)"),
         (env.action_mode in ("absolute", "residual"), "env.action_mode", "must be 'absolute' or 'residual'"),
+        (env.torque_limit in ("total", "proportional"), "env.torque_limit", "must be 'total' or 'proportional'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
         (ppo.num_envs >= 1, "ppo.num_envs", "must be at least 1"),
@@ -258,12 +262,15 @@ def to_dict(config: Config) -> dict[str, dict[str, Any]]:
 
 
 def from_dict(data: dict[str, Any]) -> Config:
-    """Inverse of `to_dict`; unknown sections or keys are errors."""
+    """Inverse of `to_dict`; unknown sections or keys are errors. A run written before
+    env.torque_limit existed trained with the "proportional" law, and keeps it."""
     flat = {}
     for section, values in data.items():
         if not isinstance(values, dict):
             raise UserError(f"config section {section!r}: expected a mapping")
         flat.update({f"{section}.{k}": v for k, v in values.items()})
+    if "env" in data:
+        flat.setdefault("env.torque_limit", "proportional")
     return apply_overrides(Config(), flat)
 
 

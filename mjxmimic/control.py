@@ -7,8 +7,14 @@ its range. "residual" targets: the reference pose at the step's end, turned by t
 PD law (a documented equivalent of stable PD, Tan et al. 2011): damping -kd qd is each joint's
 MuJoCo damping, which the Euler integrator applies implicitly ((M + dt Kd) qacc = ...), as stable
 PD does; the proportional term uses the pose one step ahead, Kp (q_target - (q + dt qd)), also as
-stable PD does, and is clamped to the joint's torque-norm limit. The implicit stiffness term
-(dt^2 Kp in the matrix) is left out; the physics-rate study shows the result is stable.
+stable PD does. The implicit stiffness term (dt^2 Kp in the matrix) is left out; the physics-rate
+study shows the result is stable.
+
+Torque limit ("total", DeepMimic's): the joint's whole PD torque, Kp (...) - Kd qd, is clamped to
+the torque-norm limit. Since MuJoCo applies -Kd qd itself, the force handed to it is the clamped
+total plus Kd qd; unclamped, that is just the proportional term. The earlier law
+("proportional") clamped the proportional term alone, so damping was never limited and capped
+every driven joint's speed at limit / Kd (3 rad/s for a knee): too slow for a backflip's take-off.
 """
 
 from __future__ import annotations
@@ -49,18 +55,27 @@ def _clamp_norm(tau: Any, limit: Any, xp: Any) -> Any:
     return tau * xp.minimum(1.0, limit[:, None] / xp.maximum(norm, 1e-9))
 
 
-def pd_forces(layout: Layout, qpos: Any, qvel: Any, targets: Targets, dt: float, xp: Any = np) -> Any:
-    """Generalised forces (nv,) of the PD law's proportional part; zero on the root."""
+TORQUE_LIMITS = ("total", "proportional")
+
+
+def pd_forces(layout: Layout, qpos: Any, qvel: Any, targets: Targets, dt: float, xp: Any = np,
+              torque_limit: str = "total") -> Any:
+    """Generalised forces (nv,) for qfrc_applied (MuJoCo adds the damping); zero on the root."""
     q_ball = qpos[layout.q_quat[1:]]
     w_ball = qvel[layout.v_ang[1:]]
     ahead = quat.mul(q_ball, quat.from_rotvec(w_ball * dt, xp), xp)
     err_ball = quat.to_rotvec(quat.mul(quat.conj(ahead, xp), targets.ball, xp), xp)
-    tau_ball = _clamp_norm(layout.ball_kp[:, None] * err_ball, layout.ball_limit, xp)
-
     q_h = qpos[layout.q_scalar[3:]]
     w_h = qvel[layout.v_scalar[3:]]
+    tau_ball = layout.ball_kp[:, None] * err_ball
     tau_h = layout.hinge_kp * (targets.hinge - (q_h + dt * w_h))
-    tau_h = xp.clip(tau_h, -layout.hinge_limit, layout.hinge_limit)
+    if torque_limit == "total":
+        damp_ball, damp_h = layout.ball_kd[:, None] * w_ball, layout.hinge_kd * w_h
+        tau_ball = _clamp_norm(tau_ball - damp_ball, layout.ball_limit, xp) + damp_ball
+        tau_h = xp.clip(tau_h - damp_h, -layout.hinge_limit, layout.hinge_limit) + damp_h
+    else:
+        tau_ball = _clamp_norm(tau_ball, layout.ball_limit, xp)
+        tau_h = xp.clip(tau_h, -layout.hinge_limit, layout.hinge_limit)
 
     zeros3 = xp.zeros(3, dtype=tau_h.dtype)
     scalars = xp.concatenate([zeros3, tau_h])

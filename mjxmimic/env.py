@@ -125,7 +125,7 @@ class ImitationEnv(Env):
         targets = action_to_targets(self.layout, action, ref_qpos, cfg.action_mode, cfg.action_scale, jnp)
 
         def substep(data, _):
-            forces = pd_forces(self.layout, data.qpos, data.qvel, targets, self.physics_dt, jnp)
+            forces = pd_forces(self.layout, data.qpos, data.qvel, targets, self.physics_dt, jnp, cfg.torque_limit)
             data = mjx.step(self.sys, data.replace(qfrc_applied=forces))
             contact = data._impl.contact
             fell = jnp.any(self._fall_slots & (contact.dist < 0.0))

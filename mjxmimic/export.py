@@ -216,9 +216,10 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
             "action": ("28 numbers in [-1, 1] in clip joint order: an exponential map per ball joint, "
                        "an angle per hinge; mjxmimic.control.action_to_targets").replace(
                            "28", str(character.action_size)),
-            "pd_law": ("per physics substep: qfrc_applied = kp (target - (q + dt qdot)), clamped to "
-                       "the torque limit; damping kd is the joint's MuJoCo damping; "
-                       "mjxmimic.control.pd_forces"),
+            "torque_limit": env.torque_limit,
+            "pd_law": ("per physics substep: tau = kp (target - (q + dt qdot)); damping kd is the "
+                       "joint's MuJoCo damping; torque_limit 'total': qfrc_applied = clamp(tau - kd "
+                       "qdot) + kd qdot, 'proportional': clamp(tau); mjxmimic.control.pd_forces"),
         },
         "episode": {
             "episode_seconds": env.episode_seconds,

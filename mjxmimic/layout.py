@@ -24,8 +24,10 @@ class Layout(NamedTuple):
     quat_weight: np.ndarray  # (K,) pose-error weights (root first), normalised with hinge_weight
     hinge_weight: np.ndarray  # (H,)
     ball_kp: np.ndarray  # (B,) B = K - 1
+    ball_kd: np.ndarray  # (B,) the joint's MuJoCo damping
     ball_limit: np.ndarray  # (B,) torque-norm limit, N m
     hinge_kp: np.ndarray  # (H,)
+    hinge_kd: np.ndarray  # (H,)
     hinge_limit: np.ndarray  # (H,)
     hinge_low: np.ndarray  # (H,) joint range
     hinge_high: np.ndarray  # (H,)
@@ -39,8 +41,8 @@ def make_layout(character: Character) -> Layout:
     model = character.model
     q_quat, v_ang, quat_weight = [[3, 4, 5, 6]], [[3, 4, 5]], [character.root_weight]
     q_scalar, v_scalar = [0, 1, 2], [0, 1, 2]
-    ball_kp, ball_limit, action_ball = [], [], []
-    hinge_weight, hinge_kp, hinge_limit, hinge_low, hinge_high, action_hinge = [], [], [], [], [], []
+    ball_kp, ball_kd, ball_limit, action_ball = [], [], [], []
+    hinge_weight, hinge_kp, hinge_kd, hinge_limit, hinge_low, hinge_high, action_hinge = [], [], [], [], [], [], []
     slot = 0
     for j in character.joints:
         if j.kind == BALL:
@@ -48,6 +50,7 @@ def make_layout(character: Character) -> Layout:
             v_ang.append(list(range(j.dof_adr, j.dof_adr + 3)))
             quat_weight.append(j.weight)
             ball_kp.append(j.kp)
+            ball_kd.append(j.kd)
             ball_limit.append(j.torque_limit)
             action_ball.append([slot, slot + 1, slot + 2])
             slot += 3
@@ -57,6 +60,7 @@ def make_layout(character: Character) -> Layout:
             v_scalar.append(j.dof_adr)
             hinge_weight.append(j.weight)
             hinge_kp.append(j.kp)
+            hinge_kd.append(j.kd)
             hinge_limit.append(j.torque_limit)
             hinge_low.append(model.jnt_range[jid, 0])
             hinge_high.append(model.jnt_range[jid, 1])
@@ -74,8 +78,10 @@ def make_layout(character: Character) -> Layout:
         quat_weight=np.array(quat_weight, dtype=f32),
         hinge_weight=np.array(hinge_weight, dtype=f32),
         ball_kp=np.array(ball_kp, dtype=f32),
+        ball_kd=np.array(ball_kd, dtype=f32),
         ball_limit=np.array(ball_limit, dtype=f32),
         hinge_kp=np.array(hinge_kp, dtype=f32),
+        hinge_kd=np.array(hinge_kd, dtype=f32),
         hinge_limit=np.array(hinge_limit, dtype=f32),
         hinge_low=np.array(hinge_low, dtype=f32),
         hinge_high=np.array(hinge_high, dtype=f32),

@@ -141,7 +141,8 @@ class CpuEpisode:
         warnings0 = self._bad_warnings()
         fell = False
         for _ in range(self.substeps):
-            data.qfrc_applied[:] = pd_forces(self.layout, data.qpos, data.qvel, targets, self.physics_dt, np)
+            data.qfrc_applied[:] = pd_forces(self.layout, data.qpos, data.qvel, targets, self.physics_dt, np,
+                                             cfg.torque_limit)
             mujoco.mj_step(self.model, data)
             n = data.ncon
             if n:

@@ -201,10 +201,39 @@ def test_pd_law_is_the_same_in_numpy_and_jax(env):
     for _ in range(5):
         qpos, qvel = random_state(env, rng)
         action = rng.uniform(-1, 1, env.action_size)
-        for mode in ("absolute", "residual"):
+        for mode, law in (("absolute", "total"), ("residual", "total"), ("residual", "proportional")):
             t_np = action_to_targets(env.layout, action, qpos, mode, 0.5, np)
-            f_np = pd_forces(env.layout, qpos, qvel, t_np, 1 / 240, np)
+            f_np = pd_forces(env.layout, qpos, qvel, t_np, 1 / 240, np, law)
             t_j = action_to_targets(env.layout, jnp.asarray(action), jnp.asarray(qpos), mode, 0.5, jnp)
-            f_j = pd_forces(env.layout, jnp.asarray(qpos), jnp.asarray(qvel), t_j, 1 / 240, jnp)
+            f_j = pd_forces(env.layout, jnp.asarray(qpos), jnp.asarray(qvel), t_j, 1 / 240, jnp, law)
             np.testing.assert_allclose(np.asarray(f_j), f_np, rtol=1e-4, atol=1e-2)
             assert np.all(f_np[:6] == 0)  # the root is not actuated
+
+
+def test_torque_limit_bounds_the_whole_pd_torque_damping_included(env):
+    """A knee swinging at 10 rad/s towards a far target: DeepMimic's "total" law lets the joint
+    push with its full limit (applied force minus MuJoCo's damping -kd qdot stays within it); the
+    "proportional" law clamps only kp's part, so damping (kd 50 x 10 = 500 N m) overwhelms it."""
+    lay = env.layout
+    qpos, qvel = motion.sample(env.motion, 0, 0.3)
+    qpos, qvel = np.asarray(qpos, np.float64).copy(), np.zeros(env.model.nv)
+    knee_q, knee_v = lay.q_scalar[3], lay.v_scalar[3]
+    qpos[knee_q], qvel[knee_v] = -1.5, 10.0
+    targets = action_to_targets(lay, np.zeros(env.action_size), qpos, "residual", 1.0, np)
+    targets = targets._replace(hinge=targets.hinge.copy())
+    targets.hinge[0] = 0.0  # 1.5 rad ahead, in the direction of motion
+    kd, limit = lay.hinge_kd[0], lay.hinge_limit[0]
+    net = {law: pd_forces(lay, qpos, qvel, targets, 1 / 240, np, law)[knee_v] - kd * 10.0
+           for law in ("total", "proportional")}
+    assert net["total"] == pytest.approx(limit, rel=1e-5)  # kp (1.5 - 10/240) - 500 > 150: clamped
+    assert net["proportional"] == pytest.approx(limit - kd * 10.0, rel=1e-5)  # 150 - 500
+    rng = np.random.default_rng(9)
+    for _ in range(5):  # and in general: every joint's net torque within its limit
+        qpos, qvel = random_state(env, rng)
+        qvel *= 5.0
+        t = action_to_targets(lay, rng.uniform(-1, 1, env.action_size), qpos, "absolute", 1.0, np)
+        f = pd_forces(lay, qpos, qvel, t, 1 / 240, np, "total")
+        net_h = f[lay.v_scalar[3:]] - lay.hinge_kd * qvel[lay.v_scalar[3:]]
+        net_b = f[lay.v_ang[1:]] - lay.ball_kd[:, None] * qvel[lay.v_ang[1:]]
+        assert np.all(np.abs(net_h) <= lay.hinge_limit * (1 + 1e-6))
+        assert np.all(np.linalg.norm(net_b, axis=1) <= lay.ball_limit * (1 + 1e-6))

@@ -114,6 +114,13 @@ def test_unknown_config_key_is_one_line(capsys, tmp_path):
     assert not (tmp_path / "r").exists()  # nothing half-written
 
 
+def test_a_run_saved_before_torque_limit_existed_keeps_its_law(tmp_path):
+    saved = config_lib.to_dict(config_lib.make_config("cpu"))
+    assert config_lib.from_dict(saved).env.torque_limit == "total"
+    del saved["env"]["torque_limit"]
+    assert config_lib.from_dict(saved).env.torque_limit == "proportional"
+
+
 def test_resume_errors_are_one_line(capsys, tmp_path):
     assert cli.main(["train", "--resume", str(tmp_path / "missing")]) == 2
     assert "run folder not found" in _one_line_error(capsys)
