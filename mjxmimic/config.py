@@ -105,7 +105,7 @@ LR_SCHEDULES = ("constant", "linear", "cosine")
 
 PRESETS: dict[str, dict[str, Any]] = {
     # Small enough that 2 CPU cores show learning within three minutes (measured on the default
-    # clip: NR 0.20 -> 0.24, survival 0.76 -> 1.06 s, 2 min 24 s). Two choices make it visible
+    # clip: NR 0.16 -> 0.23, survival 0.67 -> 0.92 s, 2 min 19 s). Two choices make it visible
     # in 80 k samples: 2 s episodes, which are also the NR horizon of a looping clip here (not
     # EVALUATION.md's 20 s: compare no cpu NR with a gpu NR), and DeepMimic's absolute PD targets,
     # whose untrained policy starts far from the clip (with residual targets it already tracks and
