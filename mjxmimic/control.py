@@ -55,9 +55,6 @@ def _clamp_norm(tau: Any, limit: Any, xp: Any) -> Any:
     return tau * xp.minimum(1.0, limit[:, None] / xp.maximum(norm, 1e-9))
 
 
-TORQUE_LIMITS = ("total", "proportional")
-
-
 def pd_forces(layout: Layout, qpos: Any, qvel: Any, targets: Targets, dt: float, xp: Any = np,
               torque_limit: str = "total") -> Any:
     """Generalised forces (nv,) for qfrc_applied (MuJoCo adds the damping); zero on the root."""
