@@ -14,6 +14,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from mjxmimic.bench import solver_label  # noqa: E402
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -30,8 +32,7 @@ def main() -> None:
             if rows:
                 ax.plot([r["num_envs"] for r in rows], [r["samples_per_s"] for r in rows], marker="o",
                         color=color, linestyle=style,
-                        label=f"{kind} ({device}, {rows[0]['physics_hz']} Hz, "
-                              f"{rows[0]['solver_iterations']}x{rows[0]['ls_iterations']} it)")
+                        label=f"{kind} ({device}, {rows[0]['physics_hz']} Hz, {solver_label(rows[0])} it)")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xlabel("parallel environments")

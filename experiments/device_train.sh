@@ -5,19 +5,20 @@
 # 16 MB file limit).
 #   bash experiments/device_train.sh SECONDS "NAME|ARGS..." ["NAME|ARGS..." ...]
 # ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with ARGS, which
-# may then only be --set run.* or ppo.learning_rate* keys). With at least as many GPUs as runs,
-# each run gets a GPU of its own (a sweep on a machine of several GPUs); else they share GPU 0.
+# may then only be --set run.* or ppo.learning_rate* keys). Several runs on a machine with a GPU
+# for each: one GPU per run; otherwise they share the GPUs (one run alone trains data-parallel).
 set -u
 seconds=$1; shift
-gpus=$(nvidia-smi -L 2>/dev/null | wc -l)
 export PYTHONUNBUFFERED=1
-if [ "$gpus" -ge $# ]; then own_gpu=1; export XLA_PYTHON_CLIENT_MEM_FRACTION=0.9
-else own_gpu=0; export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))"); fi
+own_gpu=0
+if [ $# -gt 1 ] && [ "$(nvidia-smi -L 2>/dev/null | wc -l)" -ge $# ]; then own_gpu=1; fi
+if [ "$own_gpu" = 1 ]; then export XLA_PYTHON_CLIENT_MEM_FRACTION=0.9
+else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))"); fi
 pids=()
 i=0
 for spec in "$@"; do
   name=${spec%%|*}; args=${spec#*|}
-  if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=$i; else export CUDA_VISIBLE_DEVICES=0; fi
+  if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=$i; fi
   i=$((i + 1))
   if [ -d "runs/$name/checkpoints" ]; then
     python3 -m mjxmimic.cli train --resume "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
