@@ -19,9 +19,9 @@ import json
 import sys
 from pathlib import Path
 
-from mjxmimic import bench
-from mjxmimic.config import make_config
-from mjxmimic.env import ImitationEnv, load_env_inputs
+from mjxmimic.ops import bench
+from mjxmimic.core.config import make_config
+from mjxmimic.envs.mjx_env import ImitationEnv, load_env_inputs
 
 RATES = (120, 240, 480)
 SOLVERS = ("1x4", "4x8")  # Newton iterations x line-search iterations
@@ -85,7 +85,7 @@ def main() -> int:
 
 def policy_rows(args: argparse.Namespace) -> list[dict]:
     """Each run's latest checkpoint evaluated under every rate x solver setting."""
-    from mjxmimic import config as config_lib
+    from mjxmimic.core import config as config_lib
     from mjxmimic.commands.evaluate import evaluate_run
 
     rows = []

@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from mjxmimic.bench import solver_label  # noqa: E402
+from mjxmimic.ops.bench import solver_label  # noqa: E402
 
 
 def main() -> None:

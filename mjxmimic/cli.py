@@ -11,7 +11,7 @@ import contextlib
 import importlib
 import sys
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 COMMANDS = {
     "train": ("mjxmimic.commands.train", "train a policy on a clip"),

@@ -17,6 +17,6 @@ def deepmimic_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def character():
-    from mjxmimic.character import load_character
+    from mjxmimic.core.character import load_character
 
     return load_character()

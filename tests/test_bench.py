@@ -1,9 +1,9 @@
 """`mjxmimic bench`'s three levels run and report consistent rows (correctness only; the speed
 figures live in benchmarks/RESULTS.md)."""
 
-from mjxmimic import bench
-from mjxmimic.config import make_config
-from mjxmimic.env import make_env
+from mjxmimic.ops import bench
+from mjxmimic.core.config import make_config
+from mjxmimic.envs.mjx_env import make_env
 
 
 def test_the_three_levels_measure_the_same_settings():

@@ -12,8 +12,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjxmimic import clip as clip_mod
-from mjxmimic.clip import (
+from mjxmimic.motion.library import clip as clip_mod
+from mjxmimic.motion.clip import (
     PROJECT_CLIPS,
     Clip,
     ClipError,
@@ -267,7 +267,7 @@ def test_missing_and_directory(tmp_path, character):
 
 
 def test_clip_error_is_a_user_error():
-    from mjxmimic.errors import UserError
+    from mjxmimic.core.errors import UserError
 
     assert issubclass(ClipError, UserError)
 
@@ -479,7 +479,7 @@ def test_script_reproduces_committed_clips(character):
 
 
 def test_default_clip_resolves(character, no_user_dirs):
-    from mjxmimic.config import ClipConfig
+    from mjxmimic.core.config import ClipConfig
 
     assert resolve_clip(ClipConfig().name) == PROJECT_CLIPS / "slow_walk.txt"
     assert math.isclose(load_clip_source("slow_walk", character).mean_speed, 0.65, abs_tol=0.01)

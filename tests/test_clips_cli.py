@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mjxmimic import cli
-from mjxmimic.clip import PROJECT_CLIPS
+from mjxmimic.motion.clip import PROJECT_CLIPS
 from mjxmimic.commands import clips as clips_cmd
 
 REPO = Path(__file__).resolve().parent.parent

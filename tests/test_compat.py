@@ -1,4 +1,4 @@
-"""mjxmimic.compat: the jax.device_put_replicated replacement, and Brax's own PPO running on it."""
+"""mjxmimic.core.compat: the jax.device_put_replicated replacement, and Brax's own PPO running on it."""
 
 import functools
 import os
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from jax.sharding import NamedSharding
 
-from mjxmimic import compat
+from mjxmimic.core import compat
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -50,7 +50,7 @@ def test_patch_installs_only_when_missing(monkeypatch):
 def test_replacement_on_two_devices():
     script = textwrap.dedent("""
         import jax, numpy as np
-        from mjxmimic.compat import device_put_replicated
+        from mjxmimic.core.compat import device_put_replicated
         devs = jax.local_devices()
         assert len(devs) == 2, devs
         out = device_put_replicated({"w": np.arange(4.0)}, devs)["w"]

@@ -7,14 +7,15 @@ import numpy as np
 import pytest
 from mujoco import mjx
 
-from mjxmimic import motion, quat
-from mjxmimic.clip import load_clip
-from mjxmimic.config import apply_overrides, make_config
-from mjxmimic.control import action_to_targets, pd_forces
-from mjxmimic.env import ImitationEnv
-from mjxmimic.kinematics import kin_from_data
-from mjxmimic.observation import observation
-from mjxmimic.reward import reward
+from mjxmimic.motion import library as motion
+from mjxmimic.core import quat
+from mjxmimic.motion.clip import load_clip
+from mjxmimic.core.config import apply_overrides, make_config
+from mjxmimic.physics.pd import action_to_targets, pd_forces
+from mjxmimic.envs.mjx_env import ImitationEnv
+from mjxmimic.core.kinematics import kin_from_data
+from mjxmimic.task.observation import observation
+from mjxmimic.task.reward import reward
 
 
 @pytest.fixture(scope="module")

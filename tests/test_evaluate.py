@@ -1,4 +1,4 @@
-"""The NR protocol (mjxmimic.evaluate) on the stand-in env, where the right answers are known."""
+"""The NR protocol (mjxmimic.runs.evaluate) on the stand-in env, where the right answers are known."""
 
 import jax
 import jax.numpy as jnp
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from mjxmimic import cli
-from mjxmimic.config import make_config
-from mjxmimic.evaluate import Evaluator, evaluate
+from mjxmimic.core.config import make_config
+from mjxmimic.runs.evaluate import Evaluator, evaluate
 from standin_env import StandInEnv
 
 CONFIG = make_config("cpu", {"run.eval_episodes": 8})
@@ -85,7 +85,7 @@ def test_nr_is_mean_of_per_episode_return_over_horizon():
 
 
 def test_evaluator_matches_evaluate_and_compiles_once():
-    from mjxmimic.ppo import export_params, make_trainer
+    from mjxmimic.learn.ppo import export_params, make_trainer
 
     env = StandInEnv()
     trainer = make_trainer(env, CONFIG)
@@ -109,7 +109,7 @@ def test_eval_cli_missing_run_folder(tmp_path, capsys):
 
 
 def test_eval_cli_folder_without_checkpoint(tmp_path, capsys):
-    from mjxmimic import config as config_lib
+    from mjxmimic.core import config as config_lib
 
     config_lib.save(CONFIG, tmp_path / "config.json")
     code = cli.main(["eval", str(tmp_path)])

@@ -2,7 +2,7 @@
 round trip, `mjxmimic play` end to end (and JAX-free), and sim-to-sim NR against MJX.
 
 One cpu-preset env and run folder are built per module (the run holds a checkpoint of freshly
-initialised, then randomised, parameters saved through mjxmimic.checkpoint; no training)."""
+initialised, then randomised, parameters saved through mjxmimic.runs.checkpoint; no training)."""
 
 from __future__ import annotations
 
@@ -18,13 +18,16 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjxmimic import checkpoint, export, motion, quat
-from mjxmimic import config as config_lib
+from mjxmimic.runs import checkpoint
+from mjxmimic.runs import export
+from mjxmimic.motion import library as motion
+from mjxmimic.core import quat
+from mjxmimic.core import config as config_lib
 from mjxmimic.cli import main as cli_main
-from mjxmimic.env import make_env
-from mjxmimic.playback import CpuEpisode, evaluate
-from mjxmimic.policy_numpy import NumpyPolicy
-from mjxmimic.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
+from mjxmimic.envs.mjx_env import make_env
+from mjxmimic.portable.playback import CpuEpisode, evaluate
+from mjxmimic.portable.policy_numpy import NumpyPolicy
+from mjxmimic.learn.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -91,7 +94,7 @@ def _randomised_state(env, config, seed: int = 0) -> TrainState:
 
 
 def _mjx_episodes(env, reset_at, transition, policy, starts):
-    """NR episodes on MJX through the env's own transition (mjxmimic.evaluate's counting: reward
+    """NR episodes on MJX through the env's own transition (mjxmimic.runs.evaluate's counting: reward
     until a fall or a non-timeout done, divided by the horizon)."""
     act = jax.jit(policy)
     out = []
@@ -112,7 +115,7 @@ def _mjx_episodes(env, reset_at, transition, policy, starts):
 @pytest.fixture(scope="module")
 def run(tmp_path_factory, env, config, reset_at, transition):
     """A cpu-preset run folder: config.json, one checkpoint, eval.json with the MJX NR of 4 episodes
-    from the start times mjxmimic.evaluate would draw for the run's eval seed."""
+    from the start times mjxmimic.runs.evaluate would draw for the run's eval seed."""
     run_dir = tmp_path_factory.mktemp("runs") / "cpu-run"
     run_dir.mkdir()
     config_lib.save(config, run_dir / "config.json")
@@ -320,7 +323,7 @@ def test_mjx_start_times_are_those_of_mjxmimic_evaluate():
     sys.path.insert(0, str(Path(__file__).parent))
     from standin_env import StandInEnv
 
-    from mjxmimic.evaluate import _rollout
+    from mjxmimic.runs.evaluate import _rollout
 
     standin = StandInEnv(clip_duration=1.7)
     policy = lambda obs, key: jnp.zeros(obs.shape[:-1] + (standin.action_size,))

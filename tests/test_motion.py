@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from mjxmimic import motion, quat
-from mjxmimic.clip import load_clip
+from mjxmimic.motion import library as motion
+from mjxmimic.core import quat
+from mjxmimic.motion.clip import load_clip
 
 
 @pytest.fixture(scope="module")

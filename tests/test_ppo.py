@@ -1,4 +1,4 @@
-"""mjxmimic.ppo: the train step, the initial std, the exported policy, the multi-device path."""
+"""mjxmimic.learn.ppo: the train step, the initial std, the exported policy, the multi-device path."""
 
 import os
 import subprocess
@@ -11,9 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjxmimic.config import make_config
-from mjxmimic.errors import UserError
-from mjxmimic.ppo import MIN_STD, export_params, learning_rate_at, make_trainer
+from mjxmimic.core.config import make_config
+from mjxmimic.core.errors import UserError
+from mjxmimic.learn.ppo import MIN_STD, export_params, learning_rate_at, make_trainer
 from standin_env import StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
@@ -130,9 +130,9 @@ def test_two_devices_shard_the_batch_and_all_reduce():
         import sys
         sys.path.insert(0, "tests")
         import jax, numpy as np
-        from mjxmimic.config import make_config
-        from mjxmimic.errors import UserError
-        from mjxmimic.ppo import make_trainer
+        from mjxmimic.core.config import make_config
+        from mjxmimic.core.errors import UserError
+        from mjxmimic.learn.ppo import make_trainer
         from standin_env import StandInEnv
         assert jax.local_device_count() == 2
         try:

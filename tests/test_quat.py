@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from mjxmimic import quat
+from mjxmimic.core import quat
 
 vec3 = arrays(np.float64, 3, elements=st.floats(-3.0, 3.0))
 quat4 = arrays(np.float64, 4, elements=st.floats(-1.0, 1.0)).filter(lambda q: np.linalg.norm(q) > 0.1)

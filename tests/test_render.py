@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjxmimic import config as config_lib
-from mjxmimic.errors import UserError
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -24,7 +24,7 @@ pytest.importorskip("imageio_ffmpeg", reason="the render extra (imageio-ffmpeg) 
 
 @pytest.fixture(scope="module", autouse=True)
 def gl():
-    from mjxmimic.render import setup_gl
+    from mjxmimic.portable.render import setup_gl
 
     try:
         return setup_gl()
@@ -35,8 +35,8 @@ def gl():
 @pytest.fixture(scope="module")
 def policy_file(tmp_path_factory, character):
     """An exported policy of random weights (numpy only: no training, no JAX)."""
-    from mjxmimic.clip import load_clip_source
-    from mjxmimic.export import make_policy_file, write_npz
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.runs.export import make_policy_file, write_npz
 
     rng = np.random.default_rng(0)
     sizes = [227, 32, 32, 56]
@@ -86,9 +86,9 @@ def test_clips_render_writes_a_changing_video(tmp_path):
 
 
 def test_ghost_is_drawn_translucent(character):
-    from mjxmimic import motion
-    from mjxmimic.clip import load_clip_source
-    from mjxmimic.render import GHOST_PREFIX, Scene
+    from mjxmimic.motion import library as motion
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.portable.render import GHOST_PREFIX, Scene
 
     lib = motion.build_motion_lib([load_clip_source("slow_walk", character)], character)
     qpos, _ = motion.sample(lib, 0, 0.3)

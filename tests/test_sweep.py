@@ -16,9 +16,10 @@ from pathlib import Path
 
 import pytest
 
-from mjxmimic import cli, sweep
-from mjxmimic import config as config_lib
-from mjxmimic.errors import UserError
+from mjxmimic import cli
+from mjxmimic.ops import sweep
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -272,7 +273,7 @@ FAKE_TRAIN = textwrap.dedent("""
         sys.exit(3)
     time.sleep(float(os.environ.get("FAKE_SLEEP", "1")))
     out.mkdir(parents=True, exist_ok=True)
-    from mjxmimic import config as c
+    from mjxmimic.core import config as c
     c.save(c.make_config(opt("--preset"), {**sets, "clip.name": opt("--clip"), "run.seed": opt("--seed")}),
            out / "config.json")
     (out / "metrics.jsonl").write_text(json.dumps({"step": 64, "wall": 1.0, "eval/nr": 0.5}) + "\\n")
@@ -325,7 +326,7 @@ def test_sigterm_checkpoints_running_training(tmp_path):
     driver = tmp_path / "driver.py"
     driver.write_text(textwrap.dedent(f"""
         import sys
-        from mjxmimic import sweep
+        from mjxmimic.ops import sweep
         spec = sweep.load_spec({str(spec_path)!r})
         sweep.Runner(spec, gpus=[], train_command=[sys.executable, {str(fake)!r}]).run()
     """))

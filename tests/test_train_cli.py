@@ -16,11 +16,12 @@ import jax
 import jax.numpy as jnp
 import pytest
 
-from mjxmimic import checkpoint, cli
-from mjxmimic import config as config_lib
+from mjxmimic import cli
+from mjxmimic.runs import checkpoint
+from mjxmimic.core import config as config_lib
 from mjxmimic.commands.train import resolve_run, train
-from mjxmimic.errors import UserError
-from mjxmimic.metrics_log import read
+from mjxmimic.core.errors import UserError
+from mjxmimic.runs.metrics_log import read
 from standin_env import StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
@@ -44,7 +45,7 @@ REAL_SET = ["run.total_samples=153600", "run.eval_every=76800", "run.checkpoint_
 
 @pytest.fixture(scope="module")
 def real_clip(tmp_path_factory) -> str:
-    clip = json.loads((REPO / "clips" / "wave.txt").read_text())
+    clip = json.loads((REPO / "mjxmimic" / "motion" / "clips" / "wave.txt").read_text())
     clip["Loop"] = "none"
     clip["Frames"] = clip["Frames"][:46]
     path = tmp_path_factory.mktemp("clip") / "wave_once.txt"
@@ -168,7 +169,7 @@ def test_resume_continues_from_the_saved_env_steps(tmp_path):
 
 
 def _template(config):
-    from mjxmimic.ppo import make_trainer
+    from mjxmimic.learn.ppo import make_trainer
 
     return make_trainer(StandInEnv(), config).init(0)
 
@@ -229,7 +230,7 @@ def test_target_nr_stops_and_records_time_to_skill(tmp_path):
 def test_checkpoint_files_stay_under_16_mb_with_gpu_sized_networks(tmp_path):
     """[1024, 512] policy and value networks on a 227-number observation and 28 actions (the
     humanoid's sizes): params + adam state are about 18 MB, split over files of at most 8 MiB."""
-    from mjxmimic.ppo import make_trainer
+    from mjxmimic.learn.ppo import make_trainer
 
     env = StandInEnv(n=28, pad_observation_to=227)
     assert (env.observation_size, env.action_size) == (227, 28)

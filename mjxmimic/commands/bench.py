@@ -7,7 +7,7 @@ import argparse
 import json
 from pathlib import Path
 
-from mjxmimic import config as config_lib
+from mjxmimic.core import config as config_lib
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,8 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from mjxmimic import bench
-    from mjxmimic.env import ImitationEnv, load_env_inputs
+    from mjxmimic.ops import bench
+    from mjxmimic.envs.mjx_env import ImitationEnv, load_env_inputs
 
     overrides = config_lib.parse_set_args(args.overrides)
     if args.clip:

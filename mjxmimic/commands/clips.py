@@ -2,7 +2,7 @@
 
 Each subcommand is a pair of functions, `add_<name>_arguments(parser)` and `run_<name>(args) -> int`,
 registered in SUBCOMMANDS; adding one (e.g. `render`) is a new pair and a new entry. Heavy imports
-belong inside the run function. This module and mjxmimic.clip stay free of JAX.
+belong inside the run function. This module and mjxmimic.motion.clip stay free of JAX.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import sys
 from collections.abc import Callable
 from typing import NamedTuple
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 
 class Subcommand(NamedTuple):
@@ -37,7 +37,7 @@ def add_list_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from mjxmimic.clip import list_clips, search_folders
+    from mjxmimic.motion.clip import list_clips, search_folders
 
     clips = list_clips(args.clips_dir)
     if not clips:
@@ -62,7 +62,7 @@ def add_info_arguments(parser: argparse.ArgumentParser) -> None:
 
 def clip_summary(clip, character) -> dict:
     """The numbers `clips info` shows, as a JSON-ready dict."""
-    from mjxmimic.clip import lowest_points
+    from mjxmimic.motion.clip import lowest_points
 
     feet = character.body_sets.get("feet")
     lowest = lowest_points(character, clip.qpos)
@@ -113,8 +113,8 @@ def _print_summary(s: dict) -> None:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from mjxmimic.character import load_character
-    from mjxmimic.clip import ClipError, load_clip, resolve_clip
+    from mjxmimic.core.character import load_character
+    from mjxmimic.motion.clip import ClipError, load_clip, resolve_clip
 
     character = load_character()
     try:
@@ -147,11 +147,11 @@ def add_render_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    """Headless video of the clip's reference motion (kinematic; mjxmimic.render)."""
+    """Headless video of the clip's reference motion (kinematic; mjxmimic.portable.render)."""
     from pathlib import Path
 
     from mjxmimic.commands.render import _check_size
-    from mjxmimic.render import check_video_path, render_clip, setup_gl
+    from mjxmimic.portable.render import check_video_path, render_clip, setup_gl
 
     _check_size(args.width, args.height)
     if args.out is not None:
@@ -161,8 +161,8 @@ def run_render(args: argparse.Namespace) -> int:
     if args.fps <= 0:
         raise UserError(f"--fps {args.fps}: must be positive")
     setup_gl()
-    from mjxmimic.character import load_character
-    from mjxmimic.clip import load_clip, resolve_clip
+    from mjxmimic.core.character import load_character
+    from mjxmimic.motion.clip import load_clip, resolve_clip
 
     character = load_character()
     clip = load_clip(resolve_clip(args.clip, args.clips_dir), character)

@@ -1,6 +1,6 @@
 """`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint.
 
-Loads RUN/config.json and the latest checkpoint, runs the NR protocol (mjxmimic.evaluate),
+Loads RUN/config.json and the latest checkpoint, runs the NR protocol (mjxmimic.runs.evaluate),
 writes RUN/eval.json and prints a short table (or the JSON with --json).
 """
 
@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,8 +25,8 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
                  write: bool = True) -> dict:
     """NR of the run's latest checkpoint, in `env` if given (e.g. other physics settings), else
     in the run's own; `write`: also save it as RUN/eval.json."""
-    from mjxmimic import checkpoint
-    from mjxmimic import config as config_lib
+    from mjxmimic.runs import checkpoint
+    from mjxmimic.core import config as config_lib
 
     if not run_dir.is_dir():
         raise UserError(f"{run_dir}: run folder not found")
@@ -37,11 +37,11 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
     if step is None:
         raise UserError(f"{run_dir}: no checkpoint found in {checkpoint.checkpoint_dir(run_dir)}")
 
-    from mjxmimic.evaluate import evaluate
-    from mjxmimic.ppo import export_params, make_trainer
+    from mjxmimic.runs.evaluate import evaluate
+    from mjxmimic.learn.ppo import export_params, make_trainer
 
     if env is None:
-        from mjxmimic.env import make_env
+        from mjxmimic.envs.mjx_env import make_env
 
         env = make_env(config)
     trainer = make_trainer(env, config)

@@ -2,7 +2,7 @@
 
 Reads RUN/config.json, the latest checkpoint in RUN/checkpoints and (if present) RUN/eval.json,
 and writes RUN/policy.npz (or --out): network weights, observation normaliser, the character
-MJCF and the clip, and a manifest (mjxmimic.export documents every key). `mjxmimic play` and
+MJCF and the clip, and a manifest (mjxmimic.runs.export documents every key). `mjxmimic play` and
 `mjxmimic render` need nothing else. ONNX (--format onnx) needs the `onnx` package.
 """
 
@@ -22,8 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjxmimic.errors import UserError
-    from mjxmimic.export import export_run
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.runs.export import export_run
 
     fmt = args.format
     if fmt is None:

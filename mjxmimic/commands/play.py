@@ -3,7 +3,7 @@
     mjxmimic play POLICY [--clip NAME|PATH] [--episodes N] [--seed S] [--json] [--viewer]
 
 POLICY is a file from `mjxmimic export` (.npz, or .onnx with the onnx package) or a run folder
-holding policy.npz. Runs the sim-to-sim NR protocol of EVALUATION.md (mjxmimic.playback): N
+holding policy.npz. Runs the sim-to-sim NR protocol of EVALUATION.md (mjxmimic.portable.playback): N
 episodes (default 16) with the deterministic policy, each from the reference state at its start
 time, with the training's control step (PD substepping, fall rules) on mujoco.mj_step. Start
 times are the MJX evaluation's own (carried in the file) unless --seed, --clip or more episodes
@@ -49,7 +49,7 @@ def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, cl
 def _viewer_loop(env, policy, starts):
     import mujoco.viewer
 
-    from mjxmimic.playback import evaluate
+    from mjxmimic.portable.playback import evaluate
 
     with mujoco.viewer.launch_passive(env.model, env.data) as viewer:
         clock = {"t": time.perf_counter()}
@@ -68,7 +68,7 @@ def _viewer_loop(env, policy, starts):
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjxmimic.errors import UserError
+    from mjxmimic.core.errors import UserError
 
     if args.viewer and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise UserError("--viewer needs a display (DISPLAY and WAYLAND_DISPLAY are unset); "
@@ -76,13 +76,13 @@ def run(args: argparse.Namespace) -> int:
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
 
-    from mjxmimic import export
-    from mjxmimic.playback import CpuEpisode, evaluate
+    from mjxmimic.runs import export
+    from mjxmimic.portable.playback import CpuEpisode, evaluate
 
     pf = export.read(args.policy)
     character = pf.character()
     if args.clip is not None:
-        from mjxmimic.clip import load_clip_source
+        from mjxmimic.motion.clip import load_clip_source
 
         clip = load_clip_source(args.clip, character, args.clips_dir)
     else:

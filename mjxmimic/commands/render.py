@@ -4,7 +4,7 @@ One episode on MuJoCo's CPU simulator (as `mjxmimic play` runs it) from the refe
 --start, one frame per control step, until the episode ends or --seconds pass; --ghost adds the
 reference motion as a translucent copy of the character. POLICY is an exported file; a RUN folder
 uses RUN/policy.npz, or its latest checkpoint when there is none (that path imports JAX).
-Rendering is offscreen: EGL or OSMesa (mjxmimic.render says which packages); videos need the
+Rendering is offscreen: EGL or OSMesa (mjxmimic.portable.render says which packages); videos need the
 "render" extra (imageio, imageio-ffmpeg).
 """
 
@@ -30,8 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_policy(source: Path):
     """An exported PolicyFile from a file or a run folder (exporting in memory if need be)."""
-    from mjxmimic import export
-    from mjxmimic.errors import UserError
+    from mjxmimic.runs import export
+    from mjxmimic.core.errors import UserError
 
     if source.is_dir() and not (source / f"{export.DEFAULT_NAME}.npz").is_file():
         if not (source / "checkpoints").is_dir():
@@ -41,7 +41,7 @@ def load_policy(source: Path):
 
 
 def _check_size(width: int, height: int) -> None:
-    from mjxmimic.errors import UserError
+    from mjxmimic.core.errors import UserError
 
     for name, v in (("--width", width), ("--height", height)):
         if v < 16 or v % 16:
@@ -49,8 +49,8 @@ def _check_size(width: int, height: int) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjxmimic.errors import UserError
-    from mjxmimic.render import check_video_path, render_policy, setup_gl
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.render import check_video_path, render_policy, setup_gl
 
     _check_size(args.width, args.height)
     check_video_path(args.out)
@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     pf = load_policy(args.source)
     clip = None
     if args.clip is not None:
-        from mjxmimic.clip import load_clip_source
+        from mjxmimic.motion.clip import load_clip_source
 
         clip = load_clip_source(args.clip, pf.character(), args.clips_dir)
     info = render_policy(pf, args.out, ghost=args.ghost, clip=clip, start=args.start, seconds=args.seconds,

@@ -28,7 +28,7 @@ import argparse
 import shlex
 from pathlib import Path
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -48,7 +48,7 @@ def _echo(text: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjxmimic import sweep
+    from mjxmimic.ops import sweep
 
     if args.report and args.dry_run:
         raise UserError("--report and --dry-run cannot be combined")

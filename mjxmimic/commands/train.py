@@ -9,9 +9,9 @@ Run folder (default runs/<clip>-<timestamp>/, runs/<NAME>/ with --name, exactly 
     metrics.jsonl  one line per iteration (step = samples, wall, samples_per_s, training metrics)
                    and one per evaluation (eval/nr, eval/fall_rate, ...)
     tb/            the same scalars for TensorBoard
-    checkpoints/   orbax checkpoints (mjxmimic.checkpoint), every run.checkpoint_every samples,
+    checkpoints/   orbax checkpoints (mjxmimic.runs.checkpoint), every run.checkpoint_every samples,
                    at the end, at run.max_seconds and on Ctrl-C (then exit 130)
-    eval.json      the final NR evaluation (mjxmimic.evaluate) with the run's samples, wall-clock,
+    eval.json      the final NR evaluation (mjxmimic.runs.evaluate) with the run's samples, wall-clock,
                    steady-state samples/s and time to skill
 
 run.max_seconds bounds this call (compilation included); the run stops cleanly with a checkpoint
@@ -32,8 +32,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-from mjxmimic import config as config_lib
-from mjxmimic.errors import UserError
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,7 +65,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         bad = [k for k in overrides if not k.startswith(("run.", "ppo.learning_rate"))]
         if bad:
             raise UserError(f"--set {bad[0]}: only run.* and ppo.learning_rate* keys may change on --resume")
-        from mjxmimic import checkpoint
+        from mjxmimic.runs import checkpoint
 
         if checkpoint.latest_checkpoint(run_dir) is None:
             raise UserError(f"{run_dir}: no checkpoint to resume from (in {checkpoint.checkpoint_dir(run_dir)})")
@@ -85,7 +85,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
     elif args.name is not None:
         run_dir = Path("runs") / args.name
     else:
-        from mjxmimic.clip import clip_label
+        from mjxmimic.motion.clip import clip_label
 
         run_dir = Path("runs") / f"{clip_label(config.clip.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     if (run_dir / "config.json").exists():
@@ -140,19 +140,19 @@ def _device_info() -> dict:
 def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
           env_factory: Callable | None = None, start_time: float | None = None,
           progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
-    """Train (or continue) the run in `run_dir`. `env`/`env_factory` default to mjxmimic.env.make_env
+    """Train (or continue) the run in `run_dir`. `env`/`env_factory` default to mjxmimic.envs.mjx_env.make_env
     (tests pass a stand-in). `start_time`: the command's start (time-to-skill counts from it)."""
     t_start = time.time() if start_time is None else start_time
     import jax
 
-    from mjxmimic import checkpoint
-    from mjxmimic.evaluate import Evaluator
-    from mjxmimic.metrics_log import MetricsLog
-    from mjxmimic.ppo import export_params, make_trainer
+    from mjxmimic.runs import checkpoint
+    from mjxmimic.runs.evaluate import Evaluator
+    from mjxmimic.runs.metrics_log import MetricsLog
+    from mjxmimic.learn.ppo import export_params, make_trainer
 
     if env is None:
         if env_factory is None:
-            from mjxmimic.env import make_env as env_factory
+            from mjxmimic.envs.mjx_env import make_env as env_factory
         env = env_factory(config)
     trainer = make_trainer(env, config)
     run_cfg = config.run
@@ -347,7 +347,7 @@ def run(args: argparse.Namespace) -> int:
     config, run_dir, resume = resolve_run(args)
     if not resume:
         # Build the env before writing anything: a bad clip is one error line and no folder.
-        from mjxmimic.env import make_env
+        from mjxmimic.envs.mjx_env import make_env
 
         env = make_env(config)
     else:

@@ -14,9 +14,9 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
-from mjxmimic import quat
-from mjxmimic.character import Character
-from mjxmimic.layout import Layout, make_layout
+from mjxmimic.core import quat
+from mjxmimic.core.character import Character
+from mjxmimic.core.layout import Layout, make_layout
 
 
 class MotionLib(NamedTuple):
@@ -45,7 +45,7 @@ def _segment_velocity(layout: Layout, q0: np.ndarray, q1: np.ndarray, dt: np.nda
 
 
 def build_motion_lib(clips: Sequence[Any], character: Character) -> MotionLib:
-    """Concatenate clips (mjxmimic.clip.Clip) into one library, computing velocities."""
+    """Concatenate clips (mjxmimic.motion.clip.Clip) into one library, computing velocities."""
     layout = make_layout(character)
     qpos, qvel, times, frame_clip = [], [], [], []
     starts, counts, durations, loops, yaws, origins, shifts = [], [], [], [], [], [], []

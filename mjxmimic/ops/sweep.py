@@ -70,10 +70,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mjxmimic import config as config_lib
-from mjxmimic.clip import clip_label
-from mjxmimic.errors import UserError
-from mjxmimic.metrics_log import read as read_metrics
+from mjxmimic.core import config as config_lib
+from mjxmimic.motion.clip import clip_label
+from mjxmimic.core.errors import UserError
+from mjxmimic.runs.metrics_log import read as read_metrics
 
 SPEC_FIELDS = ("name", "description", "preset", "clip", "clips", "grid", "runs", "seeds", "set", "out")
 GPU_ENV_VAR = "MJXMIMIC_SWEEP_GPUS"
@@ -298,7 +298,7 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
         raise _SpecError("out: expected a folder path")
 
     if check_clips:
-        from mjxmimic.clip import resolve_clip
+        from mjxmimic.motion.clip import resolve_clip
 
         for clip in clips:
             try:

@@ -59,7 +59,7 @@ import numpy as np
 import optax
 from flax import linen
 
-from mjxmimic.compat import patch_all
+from mjxmimic.core.compat import patch_all
 
 patch_all()  # jax.device_put_replicated for brax; the jaxlib 0.10 CPU LAPACK deadlock
 
@@ -70,8 +70,8 @@ from brax.training.agents.ppo import losses as ppo_losses  # noqa: E402
 from brax.training.agents.ppo import networks as ppo_networks  # noqa: E402
 from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
 
-from mjxmimic.config import Config  # noqa: E402
-from mjxmimic.errors import UserError  # noqa: E402
+from mjxmimic.core.config import Config  # noqa: E402
+from mjxmimic.core.errors import UserError  # noqa: E402
 
 BATCH_AXIS = "batch"
 MIN_STD = 0.001  # NormalTanhDistribution's default min_std

@@ -3,7 +3,7 @@
 No JAX on this path (a test runs `mjxmimic play` and checks that `jax` was never imported), so an
 exported policy runs wherever numpy and mujoco do.
 
-`CpuEpisode` mirrors `mjxmimic.env.ImitationEnv` line for line, with the very same functions for
+`CpuEpisode` mirrors `mjxmimic.envs.mjx_env.ImitationEnv` line for line, with the very same functions for
 everything that is not the simulator itself:
 
     reset_at(t):  the reference state at clip time t (motion.sample), MuJoCo kinematics,
@@ -16,15 +16,15 @@ everything that is not the simulator itself:
                   non-looping clip; a failed step scores 0; observation with phase(t).
 
 `evaluate` is EVALUATION.md's NR protocol run on the CPU ("sim-to-sim NR"), counted exactly as
-mjxmimic.evaluate counts on MJX: deterministic policy, one episode per start time (RSI), horizon
+mjxmimic.runs.evaluate counts on MJX: deterministic policy, one episode per start time (RSI), horizon
 600 control steps for a looping clip (env.episode_seconds at env.control_hz) or to the clip's end,
 every step after a failure counting 0; NR = mean over episodes of (sum of rewards) / (steps in
-the horizon); fall rate, survival time, pose and end-effector errors as mjxmimic.evaluate defines
+the horizon); fall rate, survival time, pose and end-effector errors as mjxmimic.runs.evaluate defines
 them. Start times: the MJX evaluation's own (carried in the exported file), or a seeded draw.
 
 Simulator differences (measured, not playback errors). MJX's plane-box collision keeps only the
 box corners within 1 mm of the deepest one, MuJoCo C every penetrating corner; so the feet touch
-the floor through sole spheres (xml/humanoid.xml), which both treat alike. With a converged
+the floor through sole spheres (mjxmimic/core/characters/humanoid.xml), which both treat alike. With a converged
 contact solve one control step then agrees to < 1e-3 in every observation entry, on the ground
 and in the air (tests/test_export_playback.py). With few Newton iterations (the gpu preset's 4)
 the two solvers stop at different points; the GPU-trained walk still scores 0.914 on CPU against
@@ -40,15 +40,15 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
-from mjxmimic import motion as motion_lib
-from mjxmimic.character import Character, default_fall_contact, physics_model
-from mjxmimic.config import Config
-from mjxmimic.control import action_to_targets, pd_forces
-from mjxmimic.errors import UserError
-from mjxmimic.kinematics import kin_from_data
-from mjxmimic.layout import make_layout
-from mjxmimic.observation import observation
-from mjxmimic.reward import reward
+from mjxmimic.motion import library as motion_lib
+from mjxmimic.core.character import Character, default_fall_contact, physics_model
+from mjxmimic.core.config import Config
+from mjxmimic.physics.pd import action_to_targets, pd_forces
+from mjxmimic.core.errors import UserError
+from mjxmimic.core.kinematics import kin_from_data
+from mjxmimic.core.layout import make_layout
+from mjxmimic.task.observation import observation
+from mjxmimic.task.reward import reward
 
 _BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
                  mujoco.mjtWarning.mjWARN_BADQPOS)
@@ -179,14 +179,14 @@ class CpuEpisode:
         return Step(obs=obs, reward=r, done=done, fell=fell, bad=bad,
                     truncated=timeout and not failed and not clip_end, metrics=out)
 
-    # ---- evaluation (mirrors mjxmimic.evaluate) -------------------------------------------
+    # ---- evaluation (mirrors mjxmimic.runs.evaluate) -------------------------------------------
     @property
     def max_eval_horizon(self) -> int:
         return self.max_steps if self.loop else int(np.ceil(self.clip_duration / self.control_dt))
 
     def eval_horizon(self, t: float) -> int:
         """Steps of the NR horizon from start time t (EVALUATION.md; as ImitationEnv.eval_horizon),
-        at least 1 and at most max_eval_horizon (as mjxmimic.evaluate)."""
+        at least 1 and at most max_eval_horizon (as mjxmimic.runs.evaluate)."""
         if self.loop:
             h = self.max_steps
         else:
@@ -196,13 +196,13 @@ class CpuEpisode:
 
     def start_times(self, n: int, seed: int) -> np.ndarray:
         """n start times ~ U[0, clip duration) from a seeded numpy generator (the interval that
-        mjxmimic.evaluate draws from; its own times come from JAX's generator, see export)."""
+        mjxmimic.runs.evaluate draws from; its own times come from JAX's generator, see export)."""
         return np.random.default_rng(seed).uniform(0.0, self.clip_duration, size=n).astype(np.float32)
 
     def episode(self, policy: Callable[[np.ndarray], np.ndarray], t0: float,
                 on_step: Callable[[CpuEpisode, Step], Any] | None = None) -> dict[str, Any]:
         """One evaluation episode from the reference state at t0 with the deterministic policy,
-        counted as mjxmimic.evaluate counts: it runs to its horizon (the env's time limit does not
+        counted as mjxmimic.runs.evaluate counts: it runs to its horizon (the env's time limit does not
         cut it short) unless it fails (a fall, or a done that is not a timeout more than one step
         before the horizon's end: the NaN/exploding-state guard) or the clip ends."""
         obs = self.reset_at(t0)
@@ -228,7 +228,7 @@ class CpuEpisode:
 
 
 def summarize(episodes: list[dict[str, Any]], control_dt: float) -> dict[str, Any]:
-    """Per-episode sums -> the EVALUATION.md numbers, under mjxmimic.evaluate.summarize's names."""
+    """Per-episode sums -> the EVALUATION.md numbers, under mjxmimic.runs.evaluate.summarize's names."""
     ok = max(sum(e["ok_steps"] for e in episodes), 1)
     per_episode = np.array([e["reward"] / e["horizon"] for e in episodes])
     return {

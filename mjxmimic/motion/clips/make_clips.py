@@ -1,8 +1,8 @@
 """Keyframe the project's own clips in joint space and write them in DeepMimic's clip format.
 
-    python clips/make_clips.py            # (re)write clips/*.txt
-    python clips/make_clips.py --check    # exit 1 if a committed file differs from what this writes
-    python clips/make_clips.py --out DIR  # write elsewhere
+    python -m mjxmimic.motion.clips.make_clips            # (re)write mjxmimic/motion/clips/*.txt
+    python -m mjxmimic.motion.clips.make_clips --check    # exit 1 if a committed file differs from what this writes
+    python -m mjxmimic.motion.clips.make_clips --out DIR  # write elsewhere
 
 Clips (30 frames per second, looping "wrap"):
 
@@ -33,13 +33,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-try:
-    import mjxmimic  # noqa: F401
-except ModuleNotFoundError:  # run from a checkout that is not installed
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from mjxmimic.character import Character, load_character
-from mjxmimic.clip import Clip, format_clip, lowest_points
+from mjxmimic.core.character import Character, load_character
+from mjxmimic.motion.clip import Clip, format_clip, lowest_points
 
 HERE = Path(__file__).resolve().parent
 FPS = 30
@@ -404,7 +399,7 @@ def main(argv: list[str] | None = None) -> int:
             path.write_text(text)
             print(f"wrote {path}")
     if stale:
-        print(f"out of date (run python clips/make_clips.py): {', '.join(stale)}", file=sys.stderr)
+        print(f"out of date (run python -m mjxmimic.motion.clips.make_clips): {', '.join(stale)}", file=sys.stderr)
         return 1
     return 0
 

@@ -26,17 +26,17 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from mjxmimic import quat
-from mjxmimic.errors import UserError
+from mjxmimic.core import quat
+from mjxmimic.core.errors import UserError
 
 if TYPE_CHECKING:
-    from mjxmimic.character import Character
+    from mjxmimic.core.character import Character
 
 LOOP_MODES = ("wrap", "none")
 PREFIX = "humanoid3d_"  # DeepMimic's file-name prefix for the humanoid's clips
 SUFFIXES = (".txt", ".json")
 ENV_VAR = "MJXMIMIC_CLIPS"
-PROJECT_CLIPS = Path(__file__).resolve().parent.parent / "clips"
+PROJECT_CLIPS = Path(__file__).resolve().parent / "clips"
 _ZERO_NORM = 1e-8
 
 

@@ -23,7 +23,7 @@ import jax
 import numpy as np
 import orbax.checkpoint as ocp
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 TARGET_FILE_BYTES = 8 * 1024 * 1024
 KEEP = 2

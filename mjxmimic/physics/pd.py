@@ -23,8 +23,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from mjxmimic import quat
-from mjxmimic.layout import Layout
+from mjxmimic.core import quat
+from mjxmimic.core.layout import Layout
 
 
 class Targets(NamedTuple):

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 GHOST_PREFIX = "ghost/"
 GHOST_RGBA = (1.0, 0.62, 0.25, 0.3)
@@ -200,10 +200,10 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
                   seconds: float | None = None, width: int = 640, height: int = 480,
                   on_frame: Callable[[int], Any] | None = None) -> dict[str, Any]:
-    """Video of one episode of an exported policy (mjxmimic.export.PolicyFile) from the reference
+    """Video of one episode of an exported policy (mjxmimic.runs.export.PolicyFile) from the reference
     state at clip time `start`, one frame per control step, until the episode ends (fall, clip
     end, time limit) or `seconds` have passed."""
-    from mjxmimic.playback import CpuEpisode
+    from mjxmimic.portable.playback import CpuEpisode
 
     character = pf.character()
     env = CpuEpisode(pf.config(), character, clip if clip is not None else pf.clip())
@@ -242,7 +242,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
 def render_clip(character, clip: Any, out: Path, *, seconds: float | None = None, fps: float = 30.0,
                 width: int = 640, height: int = 480) -> dict[str, Any]:
     """Video of a clip's reference motion (kinematic, no physics): one cycle, or `seconds`."""
-    from mjxmimic import motion as motion_lib
+    from mjxmimic.motion import library as motion_lib
 
     lib = motion_lib.build_motion_lib([clip], character)
     duration = float(lib.duration[0])

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from mjxmimic import quat
-from mjxmimic.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
-from mjxmimic.layout import Layout
+from mjxmimic.core import quat
+from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
+from mjxmimic.core.layout import Layout
 
 # term: (weight, scale) in r = sum weight * exp(-scale * E)
 RELEASED = {"pose": (0.5, 2.0), "velocity": (0.05, 0.1), "end_effector": (0.15, 10.0),

@@ -14,7 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-XML_DIR = Path(__file__).resolve().parent.parent / "xml"
+XML_DIR = Path(__file__).resolve().parent / "characters"
 DEFAULT_XML = XML_DIR / "humanoid.xml"
 
 BALL, HINGE = "ball", "hinge"

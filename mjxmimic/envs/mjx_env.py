@@ -18,16 +18,16 @@ import numpy as np
 from brax.envs.base import Env, State
 from mujoco import mjx
 
-from mjxmimic import motion as motion_lib
-from mjxmimic.compat import patch_all
-from mjxmimic.character import Character, default_fall_contact, load_character, physics_model, resolve_xml
-from mjxmimic.config import Config
-from mjxmimic.control import action_to_targets, pd_forces
-from mjxmimic.errors import UserError
-from mjxmimic.kinematics import kin_from_data
-from mjxmimic.layout import make_layout
-from mjxmimic.observation import observation, observation_size
-from mjxmimic.reward import KINDS, reward
+from mjxmimic.motion import library as motion_lib
+from mjxmimic.core.compat import patch_all
+from mjxmimic.core.character import Character, default_fall_contact, load_character, physics_model, resolve_xml
+from mjxmimic.core.config import Config
+from mjxmimic.physics.pd import action_to_targets, pd_forces
+from mjxmimic.core.errors import UserError
+from mjxmimic.core.kinematics import kin_from_data
+from mjxmimic.core.layout import make_layout
+from mjxmimic.task.observation import observation, observation_size
+from mjxmimic.task.reward import KINDS, reward
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
@@ -179,7 +179,7 @@ class ImitationEnv(Env):
 
 
 def load_env_inputs(config: Config) -> tuple[Character, list[Any]]:
-    from mjxmimic.clip import load_clip_source
+    from mjxmimic.motion.clip import load_clip_source
 
     character = load_character(resolve_xml(config.character.xml))
     return character, [load_clip_source(config.clip.name, character)]

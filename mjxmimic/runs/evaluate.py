@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjxmimic.config import Config
+from mjxmimic.core.config import Config
 
 
 def start_times(key: jax.Array, num_episodes: int, clip_duration: float) -> jax.Array:

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from mjxmimic import quat
-from mjxmimic.kinematics import ROOT_BODY, Kin, body_linvel, root_yaw
+from mjxmimic.core import quat
+from mjxmimic.core.kinematics import ROOT_BODY, Kin, body_linvel, root_yaw
 
 
 def observation_size(nbody: int) -> int:

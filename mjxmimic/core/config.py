@@ -9,7 +9,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
-from mjxmimic.errors import UserError
+from mjxmimic.core.errors import UserError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,7 +38,7 @@ class EnvConfig:
     # NR evaluation ignores it: EVALUATION.md ends episodes on falls only.
     pose_termination_m: float = 0.0
     # "total" (DeepMimic's): each joint's torque limit bounds its whole PD torque, damping included;
-    # "proportional": the law of runs made before this key existed (mjxmimic.control says why not).
+    # "proportional": the law of runs made before this key existed (mjxmimic.physics.pd says why not).
     torque_limit: str = "total"
     max_joint_velocity: float = 100.0  # beyond this (or NaN) the state is discarded and reset
     # "residual": PD targets = reference pose turned by the action (experiments/sweeps: NR 0.49 vs

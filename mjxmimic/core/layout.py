@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mjxmimic.character import BALL, Character
+from mjxmimic.core.character import BALL, Character
 
 
 class Layout(NamedTuple):

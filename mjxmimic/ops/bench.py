@@ -21,9 +21,9 @@ import jax.numpy as jnp
 import numpy as np
 from mujoco import mjx
 
-from mjxmimic.config import Config, apply_overrides
-from mjxmimic.control import action_to_targets, pd_forces
-from mjxmimic.env import ImitationEnv
+from mjxmimic.core.config import Config, apply_overrides
+from mjxmimic.physics.pd import action_to_targets, pd_forces
+from mjxmimic.envs.mjx_env import ImitationEnv
 
 
 def environment_info() -> dict[str, Any]:
@@ -179,7 +179,7 @@ def with_settings(config: Config, physics_hz: int, iterations: int, ls_iteration
 def train_loop(env: ImitationEnv, config: Config, iterations: int | None = None) -> Measurement:
     """Samples/s of the full PPO iteration (rollout, reward, resets, GAE, updates), steady state;
     5 timed iterations by default, 3 once one iteration holds a million samples."""
-    from mjxmimic.ppo import make_trainer
+    from mjxmimic.learn.ppo import make_trainer
 
     if iterations is None:
         iterations = 3 if config.ppo.num_envs * config.ppo.unroll_length >= 2**20 else 5

@@ -28,7 +28,7 @@ The manifest (JSON object):
     training    run folder, checkpoint (env_steps), samples, train_seconds, and `eval`: the
                 training-side (MJX) evaluation: nr, fall_rate, survival_s, episodes, seed and the
                 start times of its episodes (so CPU playback starts from the same RSI states)
-    config      the run's resolved config (mjxmimic.config.to_dict); playback rebuilds its
+    config      the run's resolved config (mjxmimic.core.config.to_dict); playback rebuilds its
                 environment settings from it (character and clip come from this file instead)
     arrays      every array key with its shape and dtype
 
@@ -57,10 +57,10 @@ import mujoco
 import numpy as np
 
 from mjxmimic import __version__
-from mjxmimic import config as config_lib
-from mjxmimic.character import BALL, Character, default_fall_contact, load_character
-from mjxmimic.errors import UserError
-from mjxmimic.policy_numpy import NumpyPolicy
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.character import BALL, Character, default_fall_contact, load_character
+from mjxmimic.core.errors import UserError
+from mjxmimic.portable.policy_numpy import NumpyPolicy
 
 FORMAT = "mjxmimic-policy"
 FORMAT_VERSION = 1
@@ -107,8 +107,8 @@ class PolicyFile:
         return self._character
 
     def clip(self):
-        """The embedded reference clip as an mjxmimic.clip.Clip."""
-        from mjxmimic.clip import Clip
+        """The embedded reference clip as an mjxmimic.motion.clip.Clip."""
+        from mjxmimic.motion.clip import Clip
 
         c = self.manifest["clip"]
         return Clip(name=c["name"], path=None, loop=bool(c["loop"]),
@@ -135,7 +135,7 @@ def _sha256(text: str) -> str:
 
 
 def observation_layout(character: Character) -> list[dict[str, Any]]:
-    """The observation's parts in order (mjxmimic.observation), with sizes."""
+    """The observation's parts in order (mjxmimic.task.observation), with sizes."""
     bodies = list(character.body_names)
     n = len(bodies)
     frame = "heading frame (rotation about z that undoes the root's facing)"
@@ -214,12 +214,12 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
             "action_mode": env.action_mode,
             "action_scale": env.action_scale,
             "action": ("28 numbers in [-1, 1] in clip joint order: an exponential map per ball joint, "
-                       "an angle per hinge; mjxmimic.control.action_to_targets").replace(
+                       "an angle per hinge; mjxmimic.physics.pd.action_to_targets").replace(
                            "28", str(character.action_size)),
             "torque_limit": env.torque_limit,
             "pd_law": ("per physics substep: tau = kp (target - (q + dt qdot)); damping kd is the "
                        "joint's MuJoCo damping; torque_limit 'total': qfrc_applied = clamp(tau - kd "
-                       "qdot) + kd qdot, 'proportional': clamp(tau); mjxmimic.control.pd_forces"),
+                       "qdot) + kd qdot, 'proportional': clamp(tau); mjxmimic.physics.pd.pd_forces"),
         },
         "episode": {
             "episode_seconds": env.episode_seconds,
@@ -244,7 +244,7 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
 
 def make_policy_file(config: config_lib.Config, character: Character, clip: Any, params: dict[str, Any],
                      training: dict[str, Any] | None = None) -> PolicyFile:
-    """Assemble the contents from in-memory parts (params as `mjxmimic.ppo.export_params`)."""
+    """Assemble the contents from in-memory parts (params as `mjxmimic.learn.ppo.export_params`)."""
     xml = Path(character.xml_path).read_text(encoding="utf-8")
     try:
         mujoco.MjModel.from_xml_string(xml)
@@ -446,19 +446,19 @@ def read(path: str | Path) -> PolicyFile:
 
 
 def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.ndarray:
-    """The start times of `mjxmimic.evaluate`'s episodes for a seed (needs JAX).
-    tests/test_export_playback.py checks this against mjxmimic.evaluate itself."""
+    """The start times of `mjxmimic.runs.evaluate`'s episodes for a seed (needs JAX).
+    tests/test_export_playback.py checks this against mjxmimic.runs.evaluate itself."""
     import jax
 
-    from mjxmimic.evaluate import start_times
+    from mjxmimic.runs.evaluate import start_times
 
     return np.asarray(start_times(jax.random.PRNGKey(seed), episodes, clip_duration), np.float32)
 
 
 def params_from_run(run_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(`mjxmimic.ppo.export_params` of RUN's latest checkpoint, as numpy; the checkpoint's meta).
+    """(`mjxmimic.learn.ppo.export_params` of RUN's latest checkpoint, as numpy; the checkpoint's meta).
 
-    Restores only the "params" and "learner" items (mjxmimic.checkpoint's layout) into a template
+    Restores only the "params" and "learner" items (mjxmimic.runs.checkpoint's layout) into a template
     of the run's networks, as numpy, so no environment is built and a checkpoint written on a GPU
     exports on a CPU. Imports JAX (orbax). tests/test_export_playback.py checks the result against
     export_params of the saved state.
@@ -468,11 +468,11 @@ def params_from_run(run_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
     from brax.training import types as brax_types
     from brax.training.acme import running_statistics
 
-    from mjxmimic import checkpoint
-    from mjxmimic import config as config_lib
-    from mjxmimic.character import load_character, resolve_xml
-    from mjxmimic.observation import observation_size
-    from mjxmimic.ppo import make_networks
+    from mjxmimic.runs import checkpoint
+    from mjxmimic.core import config as config_lib
+    from mjxmimic.core.character import load_character, resolve_xml
+    from mjxmimic.task.observation import observation_size
+    from mjxmimic.learn.ppo import make_networks
 
     step = checkpoint.latest_checkpoint(run_dir)
     if step is None:
@@ -509,8 +509,8 @@ def params_from_run(run_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
 
 def policy_file_from_run(run_dir: Path) -> PolicyFile:
     """The portable contents of RUN's latest checkpoint (in memory; imports JAX)."""
-    from mjxmimic.character import resolve_xml
-    from mjxmimic.clip import load_clip_source
+    from mjxmimic.core.character import resolve_xml
+    from mjxmimic.motion.clip import load_clip_source
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():

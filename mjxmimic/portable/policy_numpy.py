@@ -1,6 +1,6 @@
 """The trained policy's forward pass in numpy: no JAX, so an exported policy runs anywhere.
 
-It is the function Brax's PPO networks compute (mjxmimic.ppo, "Exported parameters"), written out:
+It is the function Brax's PPO networks compute (mjxmimic.learn.ppo, "Exported parameters"), written out:
 
     z   = (obs - mean) / std                        Brax running_statistics.normalize, no clipping
     h   = relu(z @ kernel_i + bias_i)               every hidden layer (Brax MLP "hidden_i")

@@ -7,7 +7,7 @@ machine 0.11.2). `patch_jax_for_brax()` installs a faithful replacement, built o
 function, so on an older JAX nothing changes. A second, unrelated JAX problem, a deadlock of
 batched LAPACK calls on jaxlib 0.10.x CPU that hangs MJX training, is fixed by
 `patch_jax_cpu_lapack_deadlock()` (see its docstring). `patch_all()` applies both;
-`mjxmimic.ppo` calls it at import.
+`mjxmimic.learn.ppo` calls it at import.
 
 Semantics of the old function (and of the replacement): `device_put_replicated(x, devices)` maps
 over the pytree `x`; each leaf of shape S becomes one array of shape (len(devices), *S) whose
@@ -27,7 +27,7 @@ run end to end on the 'fast' env in tests/test_compat.py):
   `_unpmap` reads `addressable_shards[0]`, which works with arrays placed by the replacement.
 - The only other hits of the scan are prose (`jnp.linal.norm` in a docstring of brax/math.py,
   `jax.Arrays` in docstrings of brax/io/torch.py), not code.
-mjxmimic's own trainer (`mjxmimic.ppo`) does not use `pmap` or `device_put_replicated` at all: it
+mjxmimic's own trainer (`mjxmimic.learn.ppo`) does not use `pmap` or `device_put_replicated` at all: it
 shards with `jax.sharding` under `jit`. The patch matters for code that calls Brax's own
 `ppo.train` (baselines, comparisons).
 """
@@ -130,7 +130,7 @@ def patch_jax_cpu_lapack_deadlock() -> bool:
     LAPACK (when it did not hang) and 0.57 s with XLA's own HLO `cholesky`/`triangular_solve`
     expanders. Other LAPACK-backed ops (lu, qr, eigh, svd) are left
     alone: MJX's step does not use them. Must run before the first jit that uses these ops
-    (mjxmimic.ppo calls it at import). Returns True if it patched.
+    (mjxmimic.learn.ppo calls it at import). Returns True if it patched.
     """
     import jaxlib
 
