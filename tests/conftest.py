@@ -1,11 +1,17 @@
-"""Shared fixtures: the real DeepMimic data lives in ../shared/deepmimic beside the checkout."""
+"""Shared fixtures. The real DeepMimic data lives in ../shared/deepmimic beside the checkout;
+the env tests use the project's own clips so that nothing skips without it. One compiled env per
+session, and JAX's persistent compilation cache (.pytest_cache/jax), keep the fast tier fast."""
 
 from pathlib import Path
 
+import jax
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 DEEPMIMIC = REPO.parent / "shared" / "deepmimic"
+
+jax.config.update("jax_compilation_cache_dir", str(REPO / ".pytest_cache" / "jax"))
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
 @pytest.fixture(scope="session")
@@ -20,3 +26,14 @@ def character():
     from mjxmimic.core.character import load_character
 
     return load_character()
+
+
+@pytest.fixture(scope="session")
+def residual_env(character):
+    """The cpu preset with residual targets on the project's slow_walk, MJX-JAX."""
+    from mjxmimic.core.config import make_config
+    from mjxmimic.envs.mjx_env import ImitationEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    config = make_config("cpu", {"env.action_mode": "residual", "physics.backend": "jax"})
+    return ImitationEnv(config, character, [load_clip_source("slow_walk", character)])

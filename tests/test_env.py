@@ -1,27 +1,32 @@
-"""The imitation environment on the real walk clip: reward, RSI, ET, stability, parity with C MuJoCo."""
+"""The MJX imitation environment on the project's own walk clip: reward, RSI, ET, stability, the
+NaN guard, several clips at once, parity with C MuJoCo."""
 
 import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
 import pytest
-from mujoco import mjx
 
 from mjxmimic.motion import library as motion
 from mjxmimic.core import quat
-from mjxmimic.motion.clip import load_clip
 from mjxmimic.core.config import apply_overrides, make_config
 from mjxmimic.physics.pd import action_to_targets, pd_forces
 from mjxmimic.envs.mjx_env import ImitationEnv
 from mjxmimic.core.kinematics import kin_from_data
-from mjxmimic.task.observation import observation
-from mjxmimic.task.reward import reward
+from mjxmimic.motion.clip import load_clip_source
+from mjxmimic.task.observation import DEFAULT, observe, parse
+from mjxmimic.task.reward import reward, terms
+
+RELEASED, PAPER = terms("released"), terms("paper")
+
+
+def observation(k, phase, xp):
+    return observe(parse(DEFAULT), k, phase, xp)
 
 
 @pytest.fixture(scope="module")
-def env(deepmimic_dir, character):
-    clip = load_clip(deepmimic_dir / "motions" / "humanoid3d_walk.txt", character)
-    return ImitationEnv(make_config("cpu", {"env.action_mode": "residual"}), character, [clip])
+def env(residual_env):
+    return residual_env
 
 
 @pytest.fixture(scope="module")
@@ -41,9 +46,9 @@ def c_kin(model, qpos, qvel):
 
 def random_state(env, rng):
     """A random pose and velocity: random ball-joint rotations, hinge angles in range."""
-    qpos, qvel = motion.sample(env.motion, 0, rng.uniform(0, env.clip_duration))
+    qpos, qvel = motion.sample(env.spec.lib, 0, rng.uniform(0, env.clip_duration))
     qpos, qvel = np.asarray(qpos, np.float64).copy(), np.asarray(qvel, np.float64).copy()
-    lay = env.layout
+    lay = env.spec.layout
     qpos[lay.q_quat] = quat.normalize(rng.normal(size=lay.q_quat.shape))
     qpos[lay.q_scalar[3:]] = rng.uniform(lay.hinge_low, lay.hinge_high)
     qvel += rng.normal(scale=1.0, size=qvel.shape)
@@ -51,33 +56,33 @@ def random_state(env, rng):
 
 
 def test_reward_and_every_term_are_one_at_the_reference(env):
-    for t in np.linspace(0.0, 2.5, 6):
-        qpos, qvel = motion.sample(env.motion, 0, t)
+    for t in np.linspace(0.0, 1.3, 6):
+        qpos, qvel = motion.sample(env.spec.lib, 0, t)
         k = c_kin(env.model, qpos, qvel)
-        total, terms = reward(env.layout, k, k, "released", np)
+        total, terms = reward(RELEASED, env.spec.layout, k, k, np)
         assert total == pytest.approx(1.0, abs=1e-4)
         for name, value in terms.items():
             if name.startswith("reward/"):
                 assert value == pytest.approx(1.0, abs=1e-4), name
-        paper, _ = reward(env.layout, k, k, "paper", np)
+        paper, _ = reward(PAPER, env.spec.layout, k, k, np)
         assert paper == pytest.approx(1.0, abs=1e-4)
 
 
 def test_reward_falls_as_pose_noise_grows(env):
     rng = np.random.default_rng(0)
-    lay = env.layout
+    lay = env.spec.layout
     means = []
     for sigma in (0.0, 0.05, 0.1, 0.2, 0.4, 0.8):
         values = []
         for t in np.linspace(0.1, 1.2, 8):
-            qpos, qvel = motion.sample(env.motion, 0, t)
+            qpos, qvel = motion.sample(env.spec.lib, 0, t)
             qpos = np.asarray(qpos, np.float64)
             ref = c_kin(env.model, qpos, qvel)
             noisy = qpos.copy()
             turn = quat.from_rotvec(rng.normal(scale=sigma, size=(len(lay.q_quat), 3)))
             noisy[lay.q_quat] = quat.mul(noisy[lay.q_quat], turn)
             noisy[lay.q_scalar[3:]] += rng.normal(scale=sigma, size=len(lay.q_scalar) - 3)
-            values.append(reward(lay, c_kin(env.model, noisy, qvel), ref, "released", np)[0])
+            values.append(reward(RELEASED, lay, c_kin(env.model, noisy, qvel), ref, np)[0])
         means.append(np.mean(values))
     assert means[0] == pytest.approx(1.0, abs=1e-4)
     assert all(a > b for a, b in zip(means, means[1:])), means
@@ -86,7 +91,7 @@ def test_reward_falls_as_pose_noise_grows(env):
 
 def test_reset_state_is_the_reference_and_scores_one(env, transition):
     state = env.reset_at(jax.random.PRNGKey(0), 0.4)
-    qpos, _ = motion.sample(env.motion, 0, 0.4)
+    qpos, _ = motion.sample(env.spec.lib, 0, 0.4)
     np.testing.assert_allclose(state.pipeline_state.qpos, qpos, atol=1e-6)
     assert state.obs.shape == (env.observation_size,) == (227,)
     nxt = transition(state, jnp.zeros(env.action_size))  # PD toward the reference, one step
@@ -109,7 +114,7 @@ def test_reference_root_moves_under_the_character_at_each_new_cycle(env, transit
     assert float(mid.metrics["reward/root"]) < 0.35  # exp(-5 * 0.25)
 
     crossing = transition(shifted(env.clip_duration - 0.5 * dt), jnp.zeros(env.action_size))
-    ref_qpos, _ = motion.sample(env.motion, 0, float(crossing.info["time"]))
+    ref_qpos, _ = motion.sample(env.spec.lib, 0, float(crossing.info["time"]))
     np.testing.assert_allclose(crossing.info["root_offset"],
                                crossing.pipeline_state.qpos[0:2] - ref_qpos[0:2], atol=1e-5)
     assert float(crossing.metrics["reward/root"]) > 0.8
@@ -166,7 +171,7 @@ def test_pose_termination_ends_training_episodes_that_lose_the_reference(env, tr
     assert float(after.metrics["fell"]) == 0.0 and float(after.reward) == 0.0
     assert float(after.info["truncation"]) == 0.0  # a failure, not a timeout
     assert float(jax.jit(far.transition)(away, zero).done) == 0.0
-    for_evaluation = jax.jit(lambda s, a: near.transition(s, a, pose_termination=False))(away, zero)
+    for_evaluation = jax.jit(lambda s, a: near.transition(s, a, evaluation=True))(away, zero)
     assert float(for_evaluation.done) == 0.0 and float(for_evaluation.reward) > 0.0
 
 
@@ -185,11 +190,11 @@ def test_hundred_steps_on_four_envs_stay_finite(env):
 def test_kinematics_and_observation_match_mujoco_c(env):
     """MJX kinematics vs C MuJoCo on random poses; the same observation code on both (numpy/JAX)."""
     rng = np.random.default_rng(4)
-    fk = jax.jit(lambda q, v: env._kinematics(env._data0.replace(qpos=q, qvel=v)))
+    fk = jax.jit(env.physics.kinematics)
     for _ in range(5):
         qpos, qvel = random_state(env, rng)
         c = c_kin(env.model, qpos, qvel)
-        j = kin_from_data(fk(jnp.asarray(qpos, jnp.float32), jnp.asarray(qvel, jnp.float32)), jnp)
+        j = fk(jnp.asarray(qpos, jnp.float32), jnp.asarray(qvel, jnp.float32))
         for name in ("xipos", "xmat", "cvel", "com"):
             np.testing.assert_allclose(np.asarray(getattr(j, name)), getattr(c, name), atol=2e-4, err_msg=name)
         phase = rng.uniform()
@@ -203,10 +208,10 @@ def test_pd_law_is_the_same_in_numpy_and_jax(env):
         qpos, qvel = random_state(env, rng)
         action = rng.uniform(-1, 1, env.action_size)
         for mode, law in (("absolute", "total"), ("residual", "total"), ("residual", "proportional")):
-            t_np = action_to_targets(env.layout, action, qpos, mode, 0.5, np)
-            f_np = pd_forces(env.layout, qpos, qvel, t_np, 1 / 240, np, law)
-            t_j = action_to_targets(env.layout, jnp.asarray(action), jnp.asarray(qpos), mode, 0.5, jnp)
-            f_j = pd_forces(env.layout, jnp.asarray(qpos), jnp.asarray(qvel), t_j, 1 / 240, jnp, law)
+            t_np = action_to_targets(env.spec.layout, action, qpos, mode, 0.5, np)
+            f_np = pd_forces(env.spec.layout, qpos, qvel, t_np, 1 / 240, np, law)
+            t_j = action_to_targets(env.spec.layout, jnp.asarray(action), jnp.asarray(qpos), mode, 0.5, jnp)
+            f_j = pd_forces(env.spec.layout, jnp.asarray(qpos), jnp.asarray(qvel), t_j, 1 / 240, jnp, law)
             np.testing.assert_allclose(np.asarray(f_j), f_np, rtol=1e-4, atol=1e-2)
             assert np.all(f_np[:6] == 0)  # the root is not actuated
 
@@ -215,8 +220,8 @@ def test_torque_limit_bounds_the_whole_pd_torque_damping_included(env):
     """A knee swinging at 10 rad/s towards a far target: DeepMimic's "total" law lets the joint
     push with its full limit (applied force minus MuJoCo's damping -kd qdot stays within it); the
     "proportional" law clamps only kp's part, so damping (kd 50 x 10 = 500 N m) overwhelms it."""
-    lay = env.layout
-    qpos, qvel = motion.sample(env.motion, 0, 0.3)
+    lay = env.spec.layout
+    qpos, qvel = motion.sample(env.spec.lib, 0, 0.3)
     qpos, qvel = np.asarray(qpos, np.float64).copy(), np.zeros(env.model.nv)
     knee_q, knee_v = lay.q_scalar[3], lay.v_scalar[3]
     qpos[knee_q], qvel[knee_v] = -1.5, 10.0
@@ -238,3 +243,41 @@ def test_torque_limit_bounds_the_whole_pd_torque_damping_included(env):
         net_b = f[lay.v_ang[1:]] - lay.ball_kd[:, None] * qvel[lay.v_ang[1:]]
         assert np.all(np.abs(net_h) <= lay.hinge_limit * (1 + 1e-6))
         assert np.all(np.linalg.norm(net_b, axis=1) <= lay.ball_limit * (1 + 1e-6))
+
+
+def test_a_nan_state_is_reset_counted_and_not_a_fall(env):
+    """The guard: a state that turned NaN is reset at once, counted under physics/reset_nan,
+    scores 0, and is a cut episode (truncation, masked out of GAE), not a fall."""
+    state = env.reset_at(jax.random.PRNGKey(0), 0.2)
+    data = state.pipeline_state
+    broken = state.replace(pipeline_state=data.replace(qvel=data.qvel.at[7].set(jnp.nan)))
+    nxt = jax.jit(env.step)(broken, jnp.zeros(env.action_size))
+    assert float(nxt.metrics["physics/reset_nan"]) == 1.0
+    assert float(nxt.metrics["fell"]) == 0.0 and float(nxt.reward) == 0.0
+    assert float(nxt.done) == 1.0 and float(nxt.info["truncation"]) == 1.0
+    assert bool(jnp.all(jnp.isfinite(nxt.obs))) and bool(jnp.all(jnp.isfinite(nxt.pipeline_state.qvel)))
+    assert int(nxt.info["steps"]) == 0  # restarted
+    fine = jax.jit(env.step)(state, jnp.zeros(env.action_size))
+    assert float(fine.metrics["physics/reset_nan"]) == 0.0
+
+
+def test_two_clip_library_draws_both_and_grades_each_env_against_its_own_clip(env, character):
+    """Per-env motion state: a walk and a squat in one env; resets draw both clips by weight, and
+    an env placed on either clip's reference scores ~1 against that clip and less against the other."""
+    walk, squat = (load_clip_source(n, character) for n in ("slow_walk", "squat"))
+    two = ImitationEnv(env.config, character, [walk, squat], weights=[0.25, 0.75])
+    states = jax.jit(jax.vmap(two.reset))(jax.random.split(jax.random.PRNGKey(5), 400))
+    clips = np.asarray(states.info["clip"])
+    assert set(np.unique(clips)) == {0, 1}
+    assert 0.18 < np.mean(clips == 0) < 0.32  # weights 1:3
+    times = np.asarray(states.info["time"])
+    assert times[clips == 1].max() <= float(two.spec.lib.duration[1])
+    trans = jax.jit(two.transition)
+    zero = jnp.zeros(two.action_size)
+    for clip in (0, 1):
+        own = two.reset_at(jax.random.PRNGKey(0), 0.6, clip)
+        after = trans(own, zero)
+        assert int(after.info["clip"]) == clip and float(after.reward) > 0.7
+        # the same body state graded against the other clip
+        other = own.replace(info=dict(own.info, clip=jnp.asarray(1 - clip, jnp.int32)))
+        assert float(trans(other, zero).reward) < float(after.reward) - 0.1

@@ -45,9 +45,9 @@ def run(args: argparse.Namespace) -> int:
                 args.out.parent.mkdir(parents=True, exist_ok=True)
                 args.out.write_text(json.dumps({"info": bench.environment_info(), "preset": args.preset,
                                                 "overrides": overrides, "rows": rows}, indent=1))
-    print(f"{'kind':13} {'envs':>6} {'hz':>4} {'solver':>6} {'samples/s':>11} {'compile s':>9} {'peak MiB':>9}")
+    print(f"{'kind':13} {'physics':>7} {'envs':>6} {'hz':>4} {'solver':>6} {'samples/s':>11} {'compile s':>9} {'peak MiB':>9}")
     for r in rows:
         mem = f"{r['peak_memory_bytes'] / 2**20:9.0f}" if r["peak_memory_bytes"] else f"{'-':>9}"
-        print(f"{r['kind']:13} {r['num_envs']:>6} {r['physics_hz']:>4} {bench.solver_label(r):>6} "
+        print(f"{r['kind']:13} {r.get('backend', 'jax'):>7} {r['num_envs']:>6} {r['physics_hz']:>4} {bench.solver_label(r):>6} "
               f"{r['samples_per_s']:>11,.0f} {r['compile_s']:>9.1f} {mem}")
     return 0

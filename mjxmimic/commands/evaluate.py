@@ -1,7 +1,7 @@
 """`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint.
 
-Loads RUN/config.json and the latest checkpoint, runs the NR protocol (mjxmimic.runs.evaluate),
-writes RUN/eval.json and prints a short table (or the JSON with --json).
+Evaluates the run's latest checkpoint by the NR protocol (mjxmimic.runs.evaluate_run), which
+writes RUN/eval.json, and prints a short table (or the JSON with --json).
 """
 
 from __future__ import annotations
@@ -11,51 +11,12 @@ import json
 import sys
 from pathlib import Path
 
-from mjxmimic.core.errors import UserError
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
-
-
-def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env=None,
-                 write: bool = True) -> dict:
-    """NR of the run's latest checkpoint, in `env` if given (e.g. other physics settings), else
-    in the run's own; `write`: also save it as RUN/eval.json."""
-    from mjxmimic.runs import checkpoint
-    from mjxmimic.core import config as config_lib
-
-    if not run_dir.is_dir():
-        raise UserError(f"{run_dir}: run folder not found")
-    config = config_lib.load(run_dir / "config.json")
-    if episodes is not None and episodes < 1:
-        raise UserError(f"--episodes {episodes}: must be at least 1")
-    step = checkpoint.latest_checkpoint(run_dir)
-    if step is None:
-        raise UserError(f"{run_dir}: no checkpoint found in {checkpoint.checkpoint_dir(run_dir)}")
-
-    from mjxmimic.runs.evaluate import evaluate
-    from mjxmimic.learn.ppo import export_params, make_trainer
-
-    if env is None:
-        from mjxmimic.envs.mjx_env import make_env
-
-        env = make_env(config)
-    trainer = make_trainer(env, config)
-    ts, meta = checkpoint.restore(run_dir, trainer.init(config.run.seed), step)
-    policy = trainer.make_policy(export_params(ts), deterministic=True)
-    result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed,
-                      episodes=episodes, samples=meta["env_steps"], train_seconds=meta["elapsed_seconds"])
-    if meta.get("time_to_skill_s") is not None:
-        result["time_to_skill_s"] = meta["time_to_skill_s"]
-    result["checkpoint"] = step
-    result["clip"] = config.clip.name
-    if write:
-        (run_dir / "eval.json").write_text(json.dumps(result, indent=2) + "\n")
-    return result
 
 
 _ROWS = [
@@ -72,6 +33,8 @@ _ROWS = [
 
 
 def run(args: argparse.Namespace) -> int:
+    from mjxmimic.runs.evaluate_run import evaluate_run
+
     result = evaluate_run(args.run_dir, args.episodes, args.seed)
     if args.json:
         print(json.dumps(result, indent=2))

@@ -76,10 +76,11 @@ def run(args: argparse.Namespace) -> int:
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
 
-    from mjxmimic.runs import export
-    from mjxmimic.portable.playback import CpuEpisode, evaluate
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.portable.playback import evaluate
+    from mjxmimic.runs.folder import load_policy_file
 
-    pf = export.read(args.policy)
+    pf = load_policy_file(args.policy)
     character = pf.character()
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source
@@ -87,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         clip = load_clip_source(args.clip, character, args.clips_dir)
     else:
         clip = pf.clip()
-    env = CpuEpisode(pf.config(), character, clip)
+    env = CpuEnv(pf.config(), character, clip)
     policy = pf.policy()
     starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)
 

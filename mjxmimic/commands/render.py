@@ -28,18 +28,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=480)
 
 
-def load_policy(source: Path):
-    """An exported PolicyFile from a file or a run folder (exporting in memory if need be)."""
-    from mjxmimic.runs import export
-    from mjxmimic.core.errors import UserError
-
-    if source.is_dir() and not (source / f"{export.DEFAULT_NAME}.npz").is_file():
-        if not (source / "checkpoints").is_dir():
-            raise UserError(f"{source}: neither a policy file nor a run folder with checkpoints")
-        return export.policy_file_from_run(source)
-    return export.read(source)
-
-
 def _check_size(width: int, height: int) -> None:
     from mjxmimic.core.errors import UserError
 
@@ -51,13 +39,14 @@ def _check_size(width: int, height: int) -> None:
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.core.errors import UserError
     from mjxmimic.portable.render import check_video_path, render_policy, setup_gl
+    from mjxmimic.runs.folder import load_policy_file
 
     _check_size(args.width, args.height)
     check_video_path(args.out)
     if args.seconds is not None and args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
     setup_gl()  # before anything imports mujoco, where possible
-    pf = load_policy(args.source)
+    pf = load_policy_file(args.source, export_if_missing=True)
     clip = None
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source

@@ -45,6 +45,16 @@ class EnvConfig:
     # 0.40 for walk after 10 M samples); "absolute": DeepMimic's, the action spans each joint's range.
     action_mode: str = "residual"
     action_scale: float = 1.0  # absolute: 1 spans +-pi (ball) and the range (hinge); residual: rad
+    observations: str = "phase,root_height,bodies"  # observation terms, in order (mjxmimic.task.observation)
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsConfig:
+    # "auto": MJX's warp implementation on a CUDA GPU with warp-lang installed, else impl="jax"
+    backend: str = "auto"
+    # warp sizes its contact pool and constraint rows up front: per env (world)
+    contacts_per_world: int = 32
+    constraints_per_world: int = 160
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +64,7 @@ class RewardConfig:
     # character (DeepMimic's released sync_char_root_pos, on by default there); off: the reference
     # root runs on its own and drift costs root reward for the rest of the episode.
     sync_root_position: bool = True
+    weights: str = ""  # "term=weight,...": re-weight terms of the chosen reward (0 drops one)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,6 +107,7 @@ class Config:
     character: CharacterConfig = CharacterConfig()
     clip: ClipConfig = ClipConfig()
     env: EnvConfig = EnvConfig()
+    physics: PhysicsConfig = PhysicsConfig()
     reward: RewardConfig = RewardConfig()
     ppo: PPOConfig = PPOConfig()
     run: RunConfig = RunConfig()
@@ -232,6 +244,9 @@ def validate(config: Config) -> None:
         (env.torque_limit in ("total", "proportional"), "env.torque_limit", "must be 'total' or 'proportional'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
+        (config.physics.backend in ("auto", "warp", "jax"), "physics.backend", "must be 'auto', 'warp' or 'jax'"),
+        (config.physics.contacts_per_world >= 1, "physics.contacts_per_world", "must be at least 1"),
+        (config.physics.constraints_per_world >= 1, "physics.constraints_per_world", "must be at least 1"),
         (ppo.num_envs >= 1, "ppo.num_envs", "must be at least 1"),
         (ppo.unroll_length >= 1, "ppo.unroll_length", "must be at least 1"),
         (ppo.num_minibatches >= 1 and (ppo.num_envs % ppo.num_minibatches == 0), "ppo.num_minibatches",

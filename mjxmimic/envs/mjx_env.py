@@ -1,11 +1,9 @@
-"""The imitation environment: Brax's `Env` interface over MJX physics.
+"""The training environment: the control step (`mjxmimic.envs.step`) on an MJX backend, with
+Brax's `Env` interface (unbatched; PPO vmaps it).
 
-reset: reference state at a random clip time (RSI), drawn afresh on every reset.
-step:  action -> PD targets -> `substeps` physics steps (PD law + mjx.step under lax.scan)
-       -> observation, reward terms (sim and reference through the same MuJoCo kinematics),
-       done. When an episode ends (fall, lost track of the reference if env.pose_termination_m is
-       set, clip end, time limit, or a NaN/exploding state) the env resets itself with a new RSI
-       draw: Brax's AutoResetWrapper would replay one cached start.
+reset: a clip drawn by the library's weights, then the reference state at a random time (RSI).
+step:  the control step; an ended episode restarts at once with a fresh draw (Brax's
+       AutoResetWrapper would replay one cached start), merged with the backend's `where`.
 """
 
 from __future__ import annotations
@@ -14,66 +12,56 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from brax.envs.base import Env, State
-from mujoco import mjx
 
-from mjxmimic.motion import library as motion_lib
+from mjxmimic.core.character import Character, load_character, resolve_xml
 from mjxmimic.core.compat import patch_all
-from mjxmimic.core.character import Character, default_fall_contact, load_character, physics_model, resolve_xml
 from mjxmimic.core.config import Config
-from mjxmimic.physics.pd import action_to_targets, pd_forces
-from mjxmimic.core.errors import UserError
-from mjxmimic.core.kinematics import kin_from_data
-from mjxmimic.core.layout import make_layout
-from mjxmimic.task.observation import observation, observation_size
-from mjxmimic.task.reward import KINDS, reward
+from mjxmimic.core.scene import build_scene
+from mjxmimic.envs import step as step_lib
+from mjxmimic.motion import library as motion_lib
+from mjxmimic.physics.mjx import MjxPhysics, resolve_backend
+from mjxmimic.task import observation as obs_terms
+from mjxmimic.task import termination
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
+_MOTION_KEYS = ("clip", "time", "steps", "root_offset")
+
 
 class ImitationEnv(Env):
-    """One clip, one character; unbatched (vmap it)."""
+    """One character, a library of clips; unbatched (vmap it). `max_worlds` sizes warp's contact
+    pool: the most envs that one device steps at once."""
 
-    def __init__(self, config: Config, character: Character, clips: list[Any]):
+    def __init__(self, config: Config, character: Character, clips: list[Any], weights: Any = None,
+                 max_worlds: int | None = None):
+        env = config.env
         self.config = config
         self.character = character
         self.clips = clips
-        self.model = physics_model(character, config.env.physics_hz, config.env.solver_iterations,
-                                   config.env.ls_iterations)
-        self.sys = mjx.put_model(self.model)
-        self.layout = make_layout(character)
-        self.motion = jax.tree.map(jnp.asarray, motion_lib.build_motion_lib(clips, character))
-        self.substeps = config.env.physics_hz // config.env.control_hz
-        self.control_dt = 1.0 / config.env.control_hz
-        self.physics_dt = 1.0 / config.env.physics_hz
-        self.max_steps = int(round(config.env.episode_seconds * config.env.control_hz))
-        self.clip_duration = float(self.motion.duration[0])
-        self.loop = bool(self.motion.loop[0])
-        self.max_eval_horizon = self.max_steps if self.loop else int(np.ceil(self.clip_duration / self.control_dt))
-
-        self._data0 = mjx.make_data(self.sys)
-        spec = config.clip.fall_contact
-        if spec == "auto":
-            spec = default_fall_contact(clips[0].name)
-        try:
-            fall_bodies = np.array(character.fall_bodies(spec))
-        except ValueError as err:
-            raise UserError(f"config key 'clip.fall_contact': {err}") from None
-        fall_geom = np.isin(self.model.geom_bodyid, fall_bodies)
-        # Contact slots are fixed per model; one collision pass tells which geoms each slot holds
-        # (jitted: run op by op it took 19 s of a 2-core CPU, compiled 5 s).
-        probe = jax.jit(lambda d: mjx.collision(self.sys, mjx.kinematics(self.sys, d)))(self._data0)
-        slots = np.asarray(probe._impl.contact.geom)
-        self._fall_slots = jnp.asarray(fall_geom[slots].any(axis=1))
-        self.fall_contact = spec
-        self._metric_keys = ["reward", "fell", "lost_track"] + [f"reward/{t}" for t in KINDS[config.reward.kind]]
-        self._metric_keys += ["error/pose", "error/end_effector"]
+        self.scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations)
+        self.model = self.scene.model
+        self.backend_name = resolve_backend(config.physics.backend)
+        worlds = max_worlds or max(config.ppo.num_envs, config.run.eval_episodes)
+        self.spec = step_lib.make_spec(config, character, self.scene, clips, jnp, weights)
+        self.physics = MjxPhysics(self.scene, self.spec.layout, env.physics_hz // env.control_hz, env.torque_limit,
+                                  self.backend_name, max_worlds=worlds,
+                                  contacts_per_world=config.physics.contacts_per_world,
+                                  constraints_per_world=config.physics.constraints_per_world)
+        self.control_dt = self.spec.control_dt
+        self.max_steps = self.spec.max_steps
+        self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
+        self.train_terminations = termination.training_list(env.pose_termination_m, env.early_termination)
+        self.eval_terminations = termination.evaluation_list(env.early_termination)
+        self.fall_contacts = [step_lib.fall_contact_spec(config, c.name) for c in clips]
+        self.fall_contact = self.fall_contacts[0]
+        self.clip_duration = float(self.spec.lib.duration[0])
+        self.loop = bool(self.spec.lib.loop[0])
 
     # Brax Env interface -------------------------------------------------------------------
     @property
     def observation_size(self) -> int:
-        return observation_size(self.model.nbody)
+        return obs_terms.observation_size(self.model.nbody, self.config.env.observations)
 
     @property
     def action_size(self) -> int:
@@ -81,101 +69,67 @@ class ImitationEnv(Env):
 
     @property
     def backend(self) -> str:
-        return "mjx"
+        return f"mjx-{self.backend_name}"
+
+    def draw_start(self, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """(clip, time): a clip by weight, then a time by RSI (or the clip's start)."""
+        k_clip, k_time = jax.random.split(key)
+        clip = motion_lib.draw_clip(self.spec.lib, jax.random.uniform(k_clip), jnp)
+        if not self.config.env.rsi:
+            return clip, jnp.zeros((), jnp.float32)
+        t = jax.random.uniform(k_time, (), maxval=1.0) * step_lib.start_time_range(self.spec, clip, jnp)
+        return clip, t
 
     def reset(self, rng: jax.Array) -> State:
         rng, key = jax.random.split(rng)
-        if self.config.env.rsi:
-            last = self.clip_duration if self.loop else max(self.clip_duration - self.control_dt, 0.0)
-            t = jax.random.uniform(key, (), minval=0.0, maxval=last)
-        else:
-            t = jnp.zeros(())
-        return self.reset_at(rng, t)
+        clip, t = self.draw_start(key)
+        return self.reset_at(rng, t, clip)
 
-    def reset_at(self, rng: jax.Array, t: jax.Array) -> State:
-        """The reference state at clip time t."""
-        t = jnp.asarray(t, dtype=jnp.float32)
-        qpos, qvel = motion_lib.sample(self.motion, 0, t, jnp)
-        data = self._kinematics(self._data0.replace(qpos=qpos, qvel=qvel))
-        obs = observation(kin_from_data(data, jnp), motion_lib.phase(self.motion, 0, t, jnp), jnp)
+    def reset_at(self, rng: jax.Array, t: jax.Array, clip: jax.Array | int = 0) -> State:
+        """The reference state of `clip` at clip time t."""
+        data, motion, obs = step_lib.reset(self.spec, self.physics, jnp.asarray(clip, jnp.int32), t)
         zero = jnp.zeros(())
-        info = {"time": t, "steps": jnp.zeros((), jnp.int32), "rng": rng, "truncation": zero,
-                "root_offset": jnp.zeros(2)}
-        metrics = {k: zero for k in self._metric_keys}
+        info = {"rng": rng, "truncation": zero, "failed": zero, "clip_end": zero, **motion._asdict()}
+        metrics = {k: zero for k in self.metric_keys}
         return State(pipeline_state=data, obs=obs, reward=zero, done=zero, metrics=metrics, info=info)
 
+    @property
+    def metric_keys(self) -> list[str]:
+        keys = ["reward", "fell", "lost_track", "physics/reset_nan", "error/pose", "error/end_effector"]
+        return keys + [f"reward/{t.name}" for t in self.spec.rewards]
+
     def step(self, state: State, action: jax.Array) -> State:
-        """One control step; an ended episode restarts at once with a fresh RSI draw."""
+        """One control step; an ended episode restarts at once with a fresh draw."""
         nxt = self.transition(state, action)
         rng, key = jax.random.split(nxt.info["rng"])
         fresh = self.reset(key)
-        done = nxt.done > 0
-        pick = lambda a, b: jax.tree.map(lambda x, y: jnp.where(done, x, y), a, b)
-        restart = ("time", "steps", "root_offset")
-        info = dict(nxt.info, rng=rng, **pick({k: fresh.info[k] for k in restart}, {k: nxt.info[k] for k in restart}))
-        return nxt.replace(pipeline_state=pick(fresh.pipeline_state, nxt.pipeline_state),
-                           obs=jnp.where(done, fresh.obs, nxt.obs), info=info)
+        merged = self.select(nxt.done > 0, fresh, nxt)
+        info = dict(nxt.info, rng=rng, **{k: merged.info[k] for k in _MOTION_KEYS})
+        return nxt.replace(pipeline_state=merged.pipeline_state, obs=merged.obs, info=info)
 
-    # The physics and the grading ------------------------------------------------------------
-    def transition(self, state: State, action: jax.Array, pose_termination: bool = True) -> State:
-        """One control step without reset. Evaluation calls it directly, with
-        pose_termination=False (a training-only early termination)."""
-        cfg = self.config.env
-        t = state.info["time"] + self.control_dt
-        ref_qpos, ref_qvel = motion_lib.sample(self.motion, 0, t, jnp)  # the unshifted root
-        targets = action_to_targets(self.layout, action, ref_qpos, cfg.action_mode, cfg.action_scale, jnp)
+    def select(self, pick: jax.Array, a: State, b: State) -> State:
+        """`a` where pick, else `b` (physics through the backend's `where`); reward, done and
+        metrics are b's."""
+        info = jax.tree_util.tree_map(lambda x, y: jnp.where(pick, x, y), a.info, b.info)
+        return b.replace(pipeline_state=self.physics.where(pick, a.pipeline_state, b.pipeline_state),
+                         obs=jnp.where(pick, a.obs, b.obs), info=info)
 
-        def substep(data, _):
-            forces = pd_forces(self.layout, data.qpos, data.qvel, targets, self.physics_dt, jnp, cfg.torque_limit)
-            data = mjx.step(self.sys, data.replace(qfrc_applied=forces))
-            contact = data._impl.contact
-            fell = jnp.any(self._fall_slots & (contact.dist < 0.0))
-            return data, fell
+    def transition(self, state: State, action: jax.Array, evaluation: bool = False) -> State:
+        """One control step without reset. Evaluation uses EVALUATION.md's terminations (none of
+        the training-only ones) and also grades with the paper's reward."""
+        motion = step_lib.Motion(**{k: state.info[k] for k in _MOTION_KEYS})
+        terms = self.eval_terminations if evaluation else self.train_terminations
+        out = step_lib.control_step(self.spec, self.physics, state.pipeline_state, motion, action, terms,
+                                    grade_paper=evaluation)
+        f32 = jnp.float32
+        info = dict(state.info, truncation=out.truncation.astype(f32), failed=out.failed.astype(f32),
+                    clip_end=out.clip_end.astype(f32), **out.motion._asdict())
+        return state.replace(pipeline_state=out.state, obs=out.obs, reward=out.reward,
+                             done=out.done.astype(f32), metrics=out.metrics, info=info)
 
-        data, fell = jax.lax.scan(substep, state.pipeline_state, None, length=self.substeps)
-        fell = jnp.any(fell) & cfg.early_termination
-        data = self._kinematics(data)
-        offset = state.info["root_offset"]
-        if self.config.reward.sync_root_position:
-            offset = motion_lib.sync_root_offset(self.motion, 0, state.info["time"], t, offset,
-                                                 data.qpos[0:2], ref_qpos[0:2], jnp)
-        ref_qpos = motion_lib.shift_root(ref_qpos, offset, jnp)
-        ref = self._kinematics(self._data0.replace(qpos=ref_qpos, qvel=ref_qvel))
-        sim_kin, ref_kin = kin_from_data(data, jnp), kin_from_data(ref, jnp)
-        r, metrics = reward(self.layout, sim_kin, ref_kin, self.config.reward.kind, jnp)
-
-        finite = jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel))
-        bad = ~finite | jnp.any(jnp.abs(data.qvel) > cfg.max_joint_velocity)
-        lost = jnp.zeros((), bool)
-        if pose_termination and cfg.pose_termination_m > 0:
-            gap = jnp.linalg.norm(sim_kin.xipos[1:] - ref_kin.xipos[1:], axis=-1)
-            lost = jnp.max(gap) > cfg.pose_termination_m
-        steps = state.info["steps"] + 1
-        timeout = steps >= self.max_steps
-        clip_end = (not self.loop) & (t >= self.clip_duration - 1e-4)
-        failed = fell | bad | lost
-        done = failed | timeout | clip_end
-        r = jnp.where(failed, 0.0, r)
-        obs = observation(sim_kin, motion_lib.phase(self.motion, 0, t, jnp), jnp)
-        obs = jnp.where(bad, 0.0, jnp.nan_to_num(obs))
-        metrics = dict(metrics, reward=r, fell=fell.astype(jnp.float32), lost_track=lost.astype(jnp.float32))
-        metrics = {k: jnp.where(bad, 0.0, jnp.nan_to_num(v)) if k.startswith("error") else v
-                   for k, v in metrics.items()}
-        info = dict(state.info, time=t, steps=steps, root_offset=offset,
-                    truncation=(timeout & ~failed & ~clip_end).astype(jnp.float32))
-        return state.replace(pipeline_state=data, obs=obs, reward=r, done=done.astype(jnp.float32),
-                             metrics=metrics, info=info)
-
-    def _kinematics(self, data: mjx.Data) -> mjx.Data:
-        data = mjx.kinematics(self.sys, data)
-        data = mjx.com_pos(self.sys, data)
-        return mjx.com_vel(self.sys, data)
-
-    def eval_horizon(self, t: Any) -> Any:
+    def eval_horizon(self, t: Any, clip: Any = 0) -> Any:
         """Steps of the NR horizon from start time t (EVALUATION.md)."""
-        if self.loop:
-            return jnp.full(jnp.shape(t), self.max_steps, jnp.int32)
-        return jnp.ceil((self.clip_duration - jnp.asarray(t)) / self.control_dt - 1e-4).astype(jnp.int32)
+        return step_lib.eval_horizon(self.spec, clip, jnp.asarray(t), jnp)
 
 
 def load_env_inputs(config: Config) -> tuple[Character, list[Any]]:
@@ -185,6 +139,6 @@ def load_env_inputs(config: Config) -> tuple[Character, list[Any]]:
     return character, [load_clip_source(config.clip.name, character)]
 
 
-def make_env(config: Config) -> ImitationEnv:
+def make_env(config: Config, max_worlds: int | None = None) -> ImitationEnv:
     character, clips = load_env_inputs(config)
-    return ImitationEnv(config, character, clips)
+    return ImitationEnv(config, character, clips, max_worlds=max_worlds)

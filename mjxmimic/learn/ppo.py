@@ -255,7 +255,9 @@ class Trainer:
             extra_fields=("truncation", _STEP_METRICS))
         # data leaves are time-major [T, B, ...].
         step_metrics = data.extras["state_extras"][_STEP_METRICS]
-        metrics = {k: jnp.mean(v) for k, v in step_metrics.items()}
+        # physics/* are events (e.g. reset_nan: states that turned NaN or exploded and were reset):
+        # counted per iteration, not averaged.
+        metrics = {k: jnp.sum(v) if k.startswith("physics/") else jnp.mean(v) for k, v in step_metrics.items()}
         metrics["reward"] = jnp.mean(data.reward)
         done = 1.0 - data.discount
         metrics["done_rate"] = jnp.mean(done)

@@ -1,6 +1,6 @@
 """Throughput and stability measurements (EVALUATION.md, "Samples per second").
 
-physics_only: PD substeps and mjx.step, no policy, reward or resets (the limit).
+physics_only: the backend's PD substeps and physics steps, no policy, reward or resets (the limit).
 env_step:     the full environment step (PD, physics, kinematics, observation, reward, resets).
 train_loop:   the whole PPO iteration (rollout, GAE, updates) as training runs it.
 tracking:     how well plain PD tracking of the reference (residual action 0) survives at a physics
@@ -19,10 +19,9 @@ from typing import Any, Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
-from mujoco import mjx
 
 from mjxmimic.core.config import Config, apply_overrides
-from mjxmimic.physics.pd import action_to_targets, pd_forces
+from mjxmimic.physics.pd import action_to_targets
 from mjxmimic.envs.mjx_env import ImitationEnv
 
 
@@ -63,6 +62,7 @@ def _time(fn: Callable[[Any], Any], arg: Any, repeats: int) -> tuple[float, list
 @dataclasses.dataclass
 class Measurement:
     kind: str
+    backend: str  # physics backend: warp or jax
     num_envs: int
     physics_hz: int
     substeps: int
@@ -81,8 +81,8 @@ def _measurement(kind: str, env: ImitationEnv, num_envs: int, steps: int, compil
     med = statistics.median(times)
     sps = num_envs * steps / med
     cfg = env.config.env
-    return Measurement(kind, num_envs, cfg.physics_hz, env.substeps, cfg.solver_iterations, cfg.ls_iterations,
-                       steps, compile_s, med, sps, sps * env.substeps, peak_memory_bytes())
+    return Measurement(kind, env.backend_name, num_envs, cfg.physics_hz, env.physics.substeps, cfg.solver_iterations, cfg.ls_iterations,
+                       steps, compile_s, med, sps, sps * env.physics.substeps, peak_memory_bytes())
 
 
 def steps_for(num_envs: int) -> int:
@@ -97,24 +97,16 @@ def solver_label(row: dict) -> str:
 
 
 def physics_only(env: ImitationEnv, num_envs: int, steps: int | None = None, repeats: int = 5) -> Measurement:
-    """PD substepping + mjx.step for `steps` control steps (default `steps_for`), targets fixed
-    at the start pose."""
+    """The backend's PD substepping and physics (`env.physics.step`) for `steps` control steps
+    (default `steps_for`), targets fixed at the start pose: no policy, reward or resets."""
     steps = steps or steps_for(num_envs)
     states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
     cfg = env.config.env
     zero = jnp.zeros(env.action_size)
 
     def one_env(data):
-        targets = action_to_targets(env.layout, zero, data.qpos, cfg.action_mode, cfg.action_scale, jnp)
-
-        def substep(d, _):
-            forces = pd_forces(env.layout, d.qpos, d.qvel, targets, env.physics_dt, jnp, cfg.torque_limit)
-            return mjx.step(env.sys, d.replace(qfrc_applied=forces)), None
-
-        def control(d, _):
-            return jax.lax.scan(substep, d, None, length=env.substeps)[0], None
-
-        return jax.lax.scan(control, data, None, length=steps)[0]
+        targets = action_to_targets(env.spec.layout, zero, data.qpos, cfg.action_mode, cfg.action_scale, jnp)
+        return jax.lax.scan(lambda d, _: (env.physics.step(d, targets).state, None), data, None, length=steps)[0]
 
     fn = jax.jit(jax.vmap(one_env), donate_argnums=0)
     compile_s, times, _ = _time(fn, states.pipeline_state, repeats)
@@ -151,7 +143,7 @@ def tracking(env: ImitationEnv, num_envs: int, seconds: float = 4.0, seed: int =
         def body(carry, _):
             state, alive, bad = carry
             nxt = vtrans(state, zero)
-            exploded = (nxt.done > 0) & (nxt.metrics["fell"] == 0) & (nxt.info["truncation"] == 0)
+            exploded = nxt.metrics["physics/reset_nan"] > 0
             reward = jnp.where(alive, nxt.reward, 0.0)
             return (nxt, alive & (nxt.done == 0), bad | (alive & exploded)), (reward, alive)
 

@@ -73,6 +73,7 @@ from typing import Any
 from mjxmimic.core import config as config_lib
 from mjxmimic.motion.clip import clip_label
 from mjxmimic.core.errors import UserError
+from mjxmimic.runs import folder
 from mjxmimic.runs.metrics_log import read as read_metrics
 
 SPEC_FIELDS = ("name", "description", "preset", "clip", "clips", "grid", "runs", "seeds", "set", "out")
@@ -364,19 +365,9 @@ def _read_json(path: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
-def has_checkpoint(run_dir: Path) -> bool:
-    """A complete orbax checkpoint (RUN/checkpoints/<steps>/ with its commit marker), no JAX."""
-    folder = run_dir / "checkpoints"
-    if not folder.is_dir():
-        return False
-    return any(p.is_dir() and p.name.isdigit()
-               and ((p / "_CHECKPOINT_METADATA").exists() or (p / "commit_success.txt").exists())
-               for p in folder.iterdir())
-
-
 def is_finished(run_dir: Path, cfg: config_lib.Config) -> bool:
     """eval.json is there and the run reached its run.total_samples (or stopped at the target NR)."""
-    final = _read_json(run_dir / "eval.json")
+    final = _read_json(folder.eval_path(run_dir))
     if final is None:
         return False
     if final.get("reason") == "target":
@@ -407,7 +398,7 @@ def plan(spec: Spec) -> list[Plan]:
     plans = []
     for run in spec.runs:
         run_dir = spec.run_dir(run)
-        cfg_path = run_dir / "config.json"
+        cfg_path = folder.config_path(run_dir)
         if not cfg_path.is_file():
             why = "half-written folder, start afresh" if run_dir.exists() else "new"
             plans.append(Plan(run, "start", why))
@@ -422,7 +413,7 @@ def plan(spec: Spec) -> list[Plan]:
                             f"remove it or give the sweep another name or out folder")
         if is_finished(run_dir, run.config):
             plans.append(Plan(run, "skip", "finished"))
-        elif has_checkpoint(run_dir):
+        elif folder.has_checkpoint(run_dir):
             plans.append(Plan(run, "resume", "has a checkpoint"))
         else:
             plans.append(Plan(run, "start", "no checkpoint yet, start afresh"))
@@ -774,7 +765,7 @@ def run_row(spec: Spec, run: RunSpec, record: dict) -> dict:
     if is_finished(run_dir, run.config):
         status = "finished"
     metrics = read_metrics(run_dir)
-    final = _read_json(run_dir / "eval.json") if status == "finished" else None
+    final = _read_json(folder.eval_path(run_dir)) if status == "finished" else None
     if final is not None:
         row.update(nr=final.get("nr"), fall_rate=final.get("fall_rate"), nr_at_samples=final.get("samples"),
                    samples=final.get("samples"), wall_s=final.get("train_seconds"),
@@ -858,7 +849,7 @@ def write_tables(spec: Spec, state: dict) -> tuple[Path, Path]:
                "runs, else the latest periodic evaluation's, at the samples in column 'NR at'. Wall-clock is "
                "the training's (compilation included, summed over resumed calls); samples/s is the steady "
                "state of the run's last call."), ""]
-    devices = sorted({d for r in spec.runs if (d := (_read_json(spec.run_dir(r) / 'eval.json') or {}).get('device'))})
+    devices = sorted({d for r in spec.runs if (d := (_read_json(folder.eval_path(spec.run_dir(r))) or {}).get('device'))})
     if devices:
         lines += [f"Device: {', '.join(devices)}.", ""]
     header = ["run", "clip", *[f"`{k}`" for k in keys], "seed", "status", "NR", "fall rate", "NR at",

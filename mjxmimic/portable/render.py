@@ -200,13 +200,13 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
                   seconds: float | None = None, width: int = 640, height: int = 480,
                   on_frame: Callable[[int], Any] | None = None) -> dict[str, Any]:
-    """Video of one episode of an exported policy (mjxmimic.runs.export.PolicyFile) from the reference
+    """Video of one episode of an exported policy (mjxmimic.portable.policy_file.PolicyFile) from the reference
     state at clip time `start`, one frame per control step, until the episode ends (fall, clip
     end, time limit) or `seconds` have passed."""
-    from mjxmimic.portable.playback import CpuEpisode
+    from mjxmimic.envs.cpu_env import CpuEnv
 
     character = pf.character()
-    env = CpuEpisode(pf.config(), character, clip if clip is not None else pf.clip())
+    env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
     policy = pf.policy()
     limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     scene = Scene(pf.character_xml, character.nq, ghost, width, height)

@@ -22,16 +22,15 @@ from typing import Any
 import jax
 import numpy as np
 import orbax.checkpoint as ocp
+from brax.training import types as brax_types
+from brax.training.acme import running_statistics
 
 from mjxmimic.core.errors import UserError
+from mjxmimic.runs.folder import checkpoint_dir, require_checkpoint
 
 TARGET_FILE_BYTES = 8 * 1024 * 1024
 KEEP = 2
 _ARRAY_ITEMS = ("params", "optimizer", "learner")
-
-
-def checkpoint_dir(run_dir: Path) -> Path:
-    return Path(run_dir).resolve() / "checkpoints"
 
 
 def _manager(run_dir: Path, create: bool = True) -> ocp.CheckpointManager:
@@ -76,16 +75,8 @@ def save(run_dir: Path, ts, *, iterations: int, elapsed_seconds: float, extra: d
 def restore(run_dir: Path, template, step: int | None = None):
     """(TrainState, meta) from RUN's latest (or given) checkpoint. `template` is a TrainState of
     the same structure (e.g. `trainer.init(seed)`); its env_state is kept (not checkpointed)."""
-    step = latest_checkpoint(run_dir) if step is None else step
-    if step is None:
-        raise UserError(f"{run_dir}: no checkpoint found in {checkpoint_dir(run_dir)}")
-    target = jax.tree_util.tree_map(np.asarray, jax.device_get(_split(template)))
-    args = {name: ocp.args.PyTreeRestore(target[name],
-                                         restore_args=jax.tree_util.tree_map(
-                                             lambda _: ocp.RestoreArgs(restore_type=np.ndarray), target[name]))
-            for name in _ARRAY_ITEMS}
-    with _manager(run_dir, create=False) as mngr:
-        out = mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore(), **args))
+    step = require_checkpoint(run_dir) if step is None else step
+    out = _restore_as_numpy(run_dir, step, jax.device_get(_split(template)))
     learner = out["learner"]
     ts = template.replace(
         params=template.params.replace(policy=out["params"]["policy"], value=out["params"]["value"]),
@@ -95,6 +86,42 @@ def restore(run_dir: Path, template, step: int | None = None):
         env_steps=learner["env_steps"],
     )
     return ts, dict(out["meta"])
+
+
+def _restore_as_numpy(run_dir: Path, step: int, targets: dict[str, Any]) -> dict[str, Any]:
+    """The named array items (shaped as `targets`) and meta of checkpoint `step`, restored as numpy
+    arrays wherever they were written (a GPU run's checkpoint restores on a CPU)."""
+    targets = jax.tree_util.tree_map(np.asarray, targets)
+    args = {name: ocp.args.PyTreeRestore(tree, restore_args=jax.tree_util.tree_map(
+                lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree))
+            for name, tree in targets.items()}
+    with _manager(run_dir, create=False) as mngr:
+        return mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore(), **args))
+
+
+def restore_policy(run_dir: Path, networks, observation_size: int, step: int) -> tuple[dict, dict]:
+    """(`mjxmimic.learn.ppo.export_params`-style numpy params, meta with "checkpoint") of checkpoint
+    `step`: only the "params" and "learner" items, restored into a template of `networks` (Brax
+    PPO networks), so no environment, trainer or optimiser state is built."""
+    key = jax.random.PRNGKey(0)
+    targets = {
+        "params": {"policy": networks.policy_network.init(key), "value": networks.value_network.init(key)},
+        "learner": {"normalizer": running_statistics.init_state(
+                        jax.ShapeDtypeStruct((observation_size,), np.float32)),
+                    "key": key, "env_steps": brax_types.UInt64(hi=0, lo=0)},
+    }
+    out = _restore_as_numpy(run_dir, step, targets)
+    try:
+        normalizer = out["learner"]["normalizer"]
+        params = {"normalizer": {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)},
+                  "policy": {name: {k: np.asarray(v) for k, v in layer.items()}
+                             for name, layer in out["params"]["policy"]["params"].items()}}
+    except (KeyError, TypeError) as err:
+        raise UserError(f"{run_dir}: checkpoint {step} does not hold a policy and normaliser where "
+                        f"expected ({err})") from None
+    meta = dict(out["meta"] or {})
+    meta["checkpoint"] = int(step)
+    return params, meta
 
 
 def file_sizes(run_dir: Path, step: int) -> dict[str, int]:

@@ -1,448 +1,21 @@
-"""One portable policy file: everything CPU playback needs, and nothing it must look up elsewhere.
+"""Export from a run folder: its latest checkpoint as one portable policy file.
 
-npz format (`numpy.load(path)`, no pickles), format "mjxmimic-policy" version 1. Keys:
-
-    manifest                    0-d str: JSON (below)
-    character_xml               0-d str: the character's MJCF text itself
-    normalizer/mean             (obs,)  float32   z = (obs - mean) / std, no clipping
-    normalizer/std              (obs,)  float32
-    policy/hidden_<i>/kernel    (in, out) float32 for i = 0 .. L: relu after every layer but the
-    policy/hidden_<i>/bias      (out,)  float32   last; the last has 2 * action_size outputs
-                                                  (loc, scale); the action is tanh(loc)
-    clip/qpos                   (frames, nq) float64  the reference clip, MuJoCo qpos layout, z-up
-    clip/durations              (frames,) float64     seconds from each frame to the next
-
-The manifest (JSON object):
-    format, format_version, mjxmimic_version, created (UTC, ISO 8601)
-    character   file name, sha256 of character_xml (UTF-8 bytes), nq, nv, nbody, action_size, and
-                every actuated joint in clip order with kind, kp, kd (= MuJoCo damping),
-                torque_limit and (hinges) range: the PD gains and limits as derived from the MJCF
-    clip        name, source path at export time, loop, frames, duration_s
-    control     control_hz, physics_hz, substeps, solver_iterations, ls_iterations, integrator,
-                action_mode, action_scale, action (what an action means), pd_law
-    episode     episode_seconds, early_termination, max_joint_velocity, fall_contact (resolved
-                body set) and fall_bodies (body names)
-    reward      kind
-    observation size and layout (ordered parts with sizes and the bodies they run over)
-    policy      hidden_sizes, activation, output, normalizer, dtype
-    training    run folder, checkpoint (env_steps), samples, train_seconds, and `eval`: the
-                training-side (MJX) evaluation: nr, fall_rate, survival_s, episodes, seed and the
-                start times of its episodes (so CPU playback starts from the same RSI states)
-    config      the run's resolved config (mjxmimic.core.config.to_dict); playback rebuilds its
-                environment settings from it (character and clip come from this file instead)
-    arrays      every array key with its shape and dtype
-
-ONNX (optional, needs the `onnx` package): graph input "obs" [N, obs] float32, output "action"
-[N, act] = tanh(loc), the normaliser and the MLP as ONNX nodes; the manifest, the character XML
-and the clip ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
-"mjxmimic/clip"), so an .onnx file plays back as well.
-
-Reading this module needs numpy and mujoco only; writing from a run folder needs JAX (orbax
-checkpoints), imported inside `params_from_run`.
+The file format is mjxmimic.portable.policy_file's (JAX-free); this side reads the run (config,
+checkpoint, eval.json through mjxmimic.runs.folder) and imports JAX (orbax) when it does.
 """
 
 from __future__ import annotations
 
-import atexit
-import dataclasses
-import datetime
-import hashlib
-import json
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
-from mjxmimic import __version__
 from mjxmimic.core import config as config_lib
-from mjxmimic.core.character import BALL, Character, default_fall_contact, load_character
-from mjxmimic.core.errors import UserError
-from mjxmimic.portable.policy_numpy import NumpyPolicy
-
-FORMAT = "mjxmimic-policy"
-FORMAT_VERSION = 1
-FORMATS = ("npz", "onnx")
-DEFAULT_NAME = "policy"
-
-
-# ---------------------------------------------------------------------------------- the contents
-
-
-@dataclasses.dataclass
-class PolicyFile:
-    """The contents of an exported policy (either format)."""
-
-    manifest: dict[str, Any]
-    params: dict[str, Any]  # {"normalizer": {"mean", "std"}, "policy": {"hidden_i": {"kernel", "bias"}}}
-    character_xml: str
-    clip_qpos: np.ndarray
-    clip_durations: np.ndarray
-    path: Path | None = None
-    _character: Character | None = dataclasses.field(default=None, repr=False)
-
-    def policy(self) -> NumpyPolicy:
-        return NumpyPolicy.from_params(self.params)
-
-    def config(self) -> config_lib.Config:
-        return config_lib.from_dict(self.manifest["config"])
-
-    def character(self) -> Character:
-        """The character, loaded from the embedded MJCF text (checked against its sha256)."""
-        if self._character is None:
-            digest = _sha256(self.character_xml)
-            want = self.manifest["character"]["sha256"]
-            if digest != want:
-                raise UserError(f"{self.path}: the embedded character XML does not match its sha256 "
-                                f"(file {digest[:12]}..., manifest {want[:12]}...)")
-            name = Path(self.manifest["character"]["file"]).name or "character.xml"
-            # The file stays for the life of the process (Character.sha256 reads it again).
-            tmp = tempfile.mkdtemp(prefix="mjxmimic-character-")
-            atexit.register(shutil.rmtree, tmp, True)
-            xml_path = Path(tmp) / name
-            xml_path.write_text(self.character_xml, encoding="utf-8")
-            self._character = load_character(xml_path)
-        return self._character
-
-    def clip(self):
-        """The embedded reference clip as an mjxmimic.motion.clip.Clip."""
-        from mjxmimic.motion.clip import Clip
-
-        c = self.manifest["clip"]
-        return Clip(name=c["name"], path=None, loop=bool(c["loop"]),
-                    durations=np.array(self.clip_durations, np.float64),
-                    qpos=np.array(self.clip_qpos, np.float64))
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """Every array under its npz key."""
-        out = {"normalizer/mean": np.asarray(self.params["normalizer"]["mean"]),
-               "normalizer/std": np.asarray(self.params["normalizer"]["std"])}
-        for name, layer in self.params["policy"].items():
-            out[f"policy/{name}/kernel"] = np.asarray(layer["kernel"])
-            out[f"policy/{name}/bias"] = np.asarray(layer["bias"])
-        out["clip/qpos"] = np.asarray(self.clip_qpos)
-        out["clip/durations"] = np.asarray(self.clip_durations)
-        return out
-
-
-def _sha256(text: str) -> str:
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
-
-
-# -------------------------------------------------------------------------------- the manifest
-
-
-def observation_layout(character: Character) -> list[dict[str, Any]]:
-    """The observation's parts in order (mjxmimic.task.observation), with sizes."""
-    bodies = list(character.body_names)
-    n = len(bodies)
-    frame = "heading frame (rotation about z that undoes the root's facing)"
-    return [
-        {"name": "phase", "size": 1, "about": "clip phase in [0, 1)"},
-        {"name": "root_height", "size": 1, "about": "root body centre-of-mass height, world z (m)"},
-        {"name": "body_position", "size": 3 * n, "bodies": bodies,
-         "about": f"body centre of mass minus the root's, {frame}"},
-        {"name": "body_forward", "size": 3 * n, "bodies": bodies, "about": f"body x axis, {frame}"},
-        {"name": "body_up", "size": 3 * n, "bodies": bodies, "about": f"body z axis, {frame}"},
-        {"name": "body_linear_velocity", "size": 3 * n, "bodies": bodies,
-         "about": f"centre-of-mass linear velocity, {frame}"},
-        {"name": "body_angular_velocity", "size": 3 * n, "bodies": bodies, "about": f"angular velocity, {frame}"},
-    ]
-
-
-def _joints(character: Character) -> list[dict[str, Any]]:
-    model = character.model
-    out = []
-    for j in character.joints:
-        entry = {"name": j.name, "kind": j.kind, "kp": j.kp, "kd": j.kd, "torque_limit": j.torque_limit,
-                 "pose_weight": j.weight}
-        if j.kind != BALL:
-            jid = model.dof_jntid[j.dof_adr]
-            entry["range"] = [float(model.jnt_range[jid, 0]), float(model.jnt_range[jid, 1])]
-        out.append(entry)
-    return out
-
-
-def build_manifest(config: config_lib.Config, character: Character, character_xml: str, clip: Any,
-                   params: dict[str, Any], training: dict[str, Any] | None = None) -> dict[str, Any]:
-    env = config.env
-    policy = NumpyPolicy.from_params(params)
-    obs_layout = observation_layout(character)
-    obs_size = sum(p["size"] for p in obs_layout)
-    if policy.observation_size != obs_size:
-        raise UserError(f"the policy takes {policy.observation_size} observations; the character "
-                        f"{character.xml_path.name} gives {obs_size}")
-    if policy.action_size != character.action_size:
-        raise UserError(f"the policy gives {policy.action_size} actions; the character "
-                        f"{character.xml_path.name} has {character.action_size}")
-    fall = config.clip.fall_contact
-    if fall == "auto":
-        fall = default_fall_contact(clip.name)
-    try:
-        fall_bodies = [character.body_names[b - 1] for b in character.fall_bodies(fall)]
-    except ValueError as err:
-        raise UserError(f"config key 'clip.fall_contact': {err}") from None
-    integrator = mujoco.mjtIntegrator(int(character.model.opt.integrator)).name
-    return {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "mjxmimic_version": __version__,
-        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "character": {
-            "file": character.xml_path.name,
-            "sha256": _sha256(character_xml),
-            "nq": int(character.nq), "nv": int(character.nv), "nbody": int(character.model.nbody),
-            "action_size": int(character.action_size),
-            "joints": _joints(character),
-        },
-        "clip": {
-            "name": clip.name,
-            "source": str(clip.path) if getattr(clip, "path", None) is not None else None,
-            "loop": bool(clip.loop),
-            "frames": int(clip.qpos.shape[0]),
-            "duration_s": float(np.sum(np.asarray(clip.durations)[:-1])),
-        },
-        "control": {
-            "control_hz": env.control_hz,
-            "physics_hz": env.physics_hz,
-            "substeps": env.physics_hz // env.control_hz,
-            "solver_iterations": env.solver_iterations,
-            "ls_iterations": env.ls_iterations,
-            "integrator": integrator,
-            "action_mode": env.action_mode,
-            "action_scale": env.action_scale,
-            "action": ("28 numbers in [-1, 1] in clip joint order: an exponential map per ball joint, "
-                       "an angle per hinge; mjxmimic.physics.pd.action_to_targets").replace(
-                           "28", str(character.action_size)),
-            "torque_limit": env.torque_limit,
-            "pd_law": ("per physics substep: tau = kp (target - (q + dt qdot)); damping kd is the "
-                       "joint's MuJoCo damping; torque_limit 'total': qfrc_applied = clamp(tau - kd "
-                       "qdot) + kd qdot, 'proportional': clamp(tau); mjxmimic.physics.pd.pd_forces"),
-        },
-        "episode": {
-            "episode_seconds": env.episode_seconds,
-            "early_termination": env.early_termination,
-            "max_joint_velocity": env.max_joint_velocity,
-            "fall_contact": fall,
-            "fall_bodies": fall_bodies,
-        },
-        "reward": {"kind": config.reward.kind},
-        "observation": {"size": obs_size, "layout": obs_layout},
-        "policy": {
-            "hidden_sizes": list(policy.hidden_sizes),
-            "activation": "relu",
-            "output": "2 * action_size numbers (loc, scale); deterministic action = tanh(loc)",
-            "normalizer": "(obs - mean) / std, no clipping",
-            "dtype": "float32",
-        },
-        "training": training or {},
-        "config": config_lib.to_dict(config),
-    }
-
-
-def make_policy_file(config: config_lib.Config, character: Character, clip: Any, params: dict[str, Any],
-                     training: dict[str, Any] | None = None) -> PolicyFile:
-    """Assemble the contents from in-memory parts (params as `mjxmimic.learn.ppo.export_params`)."""
-    xml = Path(character.xml_path).read_text(encoding="utf-8")
-    try:
-        mujoco.MjModel.from_xml_string(xml)
-    except ValueError as err:
-        raise UserError(f"{character.xml_path}: the character does not compile on its own, without "
-                        f"its folder (does it use other files?): {err}") from None
-    params = _as_numpy(params)
-    manifest = build_manifest(config, character, xml, clip, params, training)
-    pf = PolicyFile(manifest=manifest, params=params, character_xml=xml,
-                    clip_qpos=np.asarray(clip.qpos, np.float64), clip_durations=np.asarray(clip.durations, np.float64))
-    manifest["arrays"] = {k: {"shape": list(v.shape), "dtype": str(v.dtype)} for k, v in pf.arrays().items()}
-    pf.manifest = json.loads(json.dumps(manifest))  # as a reader will see it (tuples become lists)
-    return pf
-
-
-def _as_numpy(params: dict[str, Any]) -> dict[str, Any]:
-    return {
-        "normalizer": {k: np.asarray(params["normalizer"][k], np.float32) for k in ("mean", "std")},
-        "policy": {name: {k: np.asarray(layer[k], np.float32) for k in ("kernel", "bias")}
-                   for name, layer in params["policy"].items()},
-    }
-
-
-# ------------------------------------------------------------------------------------ npz files
-
-
-def write_npz(pf: PolicyFile, path: Path) -> Path:
-    """Write atomically (a temporary file renamed into place): nothing half-written."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = pf.arrays()
-    arrays["manifest"] = np.array(json.dumps(pf.manifest, indent=1))
-    arrays["character_xml"] = np.array(pf.character_xml)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as f:
-        np.savez_compressed(f, **arrays)
-    tmp.replace(path)
-    return path
-
-
-def _parse_manifest(text: str, path: Path) -> dict[str, Any]:
-    try:
-        manifest = json.loads(text)
-    except json.JSONDecodeError as err:
-        raise UserError(f"{path}: the manifest is not valid JSON ({err.msg})") from None
-    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
-        raise UserError(f"{path}: not an mjxmimic policy file (no '{FORMAT}' manifest)")
-    version = manifest.get("format_version")
-    if not isinstance(version, int) or version > FORMAT_VERSION:
-        raise UserError(f"{path}: policy file format version {version} is newer than this mjxmimic "
-                        f"reads ({FORMAT_VERSION}); update mjxmimic")
-    return manifest
-
-
-def read_npz(path: Path) -> PolicyFile:
-    path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as err:
-        raise UserError(f"{path}: cannot read as an npz policy file ({err})") from None
-    for key in ("manifest", "character_xml", "normalizer/mean", "normalizer/std", "clip/qpos", "clip/durations"):
-        if key not in data:
-            raise UserError(f"{path}: not an mjxmimic policy file (no '{key}' array)")
-    manifest = _parse_manifest(str(data["manifest"]), path)
-    policy: dict[str, dict[str, np.ndarray]] = {}
-    for key, value in data.items():
-        if key.startswith("policy/"):
-            _, layer, part = key.split("/")
-            policy.setdefault(layer, {})[part] = value
-    params = {"normalizer": {"mean": data["normalizer/mean"], "std": data["normalizer/std"]}, "policy": policy}
-    return PolicyFile(manifest=manifest, params=params, character_xml=str(data["character_xml"]),
-                      clip_qpos=data["clip/qpos"], clip_durations=data["clip/durations"], path=path)
-
-
-# ----------------------------------------------------------------------------------- onnx files
-
-
-def _onnx():
-    try:
-        import onnx
-    except ImportError:
-        raise UserError("--format onnx needs the 'onnx' package (pip install onnx)") from None
-    return onnx
-
-
-def to_onnx(pf: PolicyFile):
-    """An onnx.ModelProto of the deterministic policy, with the manifest in its metadata."""
-    onnx = _onnx()
-    from onnx import TensorProto, helper, numpy_helper
-
-    policy = pf.policy()
-    obs, act = policy.observation_size, policy.action_size
-    inits = [numpy_helper.from_array(np.asarray(pf.params["normalizer"][k], np.float32), f"normalizer/{k}")
-             for k in ("mean", "std")]
-    nodes = [helper.make_node("Sub", ["obs", "normalizer/mean"], ["centred"]),
-             helper.make_node("Div", ["centred", "normalizer/std"], ["h_in"])]
-    h = "h_in"
-    n_layers = len(pf.params["policy"])
-    for i in range(n_layers):
-        name = f"hidden_{i}"
-        layer = pf.params["policy"][name]
-        inits += [numpy_helper.from_array(np.asarray(layer["kernel"], np.float32), f"policy/{name}/kernel"),
-                  numpy_helper.from_array(np.asarray(layer["bias"], np.float32), f"policy/{name}/bias")]
-        nodes += [helper.make_node("MatMul", [h, f"policy/{name}/kernel"], [f"{name}/mm"]),
-                  helper.make_node("Add", [f"{name}/mm", f"policy/{name}/bias"], [f"{name}/out"])]
-        h = f"{name}/out"
-        if i < n_layers - 1:
-            nodes.append(helper.make_node("Relu", [h], [f"{name}/relu"]))
-            h = f"{name}/relu"
-    inits += [numpy_helper.from_array(np.array([0], np.int64), "slice/start"),
-              numpy_helper.from_array(np.array([act], np.int64), "slice/end"),
-              numpy_helper.from_array(np.array([-1], np.int64), "slice/axis")]
-    nodes += [helper.make_node("Slice", [h, "slice/start", "slice/end", "slice/axis"], ["loc"]),
-              helper.make_node("Tanh", ["loc"], ["action"])]
-    graph = helper.make_graph(
-        nodes, "mjxmimic_policy",
-        [helper.make_tensor_value_info("obs", TensorProto.FLOAT, ["N", obs])],
-        [helper.make_tensor_value_info("action", TensorProto.FLOAT, ["N", act])],
-        initializer=inits)
-    model = helper.make_model(graph, producer_name="mjxmimic", producer_version=__version__,
-                              opset_imports=[helper.make_opsetid("", 17)])
-    model.ir_version = 8
-    clip = {"qpos": np.asarray(pf.clip_qpos, np.float64).tolist(),
-            "durations": np.asarray(pf.clip_durations, np.float64).tolist()}
-    for key, value in (("mjxmimic/manifest", json.dumps(pf.manifest)),
-                       ("mjxmimic/character_xml", pf.character_xml),
-                       ("mjxmimic/clip", json.dumps(clip))):
-        entry = model.metadata_props.add()
-        entry.key, entry.value = key, value
-    onnx.checker.check_model(model)
-    return model
-
-
-def write_onnx(pf: PolicyFile, path: Path) -> Path:
-    onnx = _onnx()
-    model = to_onnx(pf)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    onnx.save(model, str(tmp))
-    tmp.replace(path)
-    return path
-
-
-def read_onnx(path: Path) -> PolicyFile:
-    onnx = _onnx()
-    from onnx import numpy_helper
-
-    path = Path(path)
-    try:
-        model = onnx.load(str(path))
-    except Exception as err:  # noqa: BLE001 (onnx raises several kinds)
-        raise UserError(f"{path}: cannot read as an ONNX policy file ({err})") from None
-    meta = {p.key: p.value for p in model.metadata_props}
-    for key in ("mjxmimic/manifest", "mjxmimic/character_xml", "mjxmimic/clip"):
-        if key not in meta:
-            raise UserError(f"{path}: not an mjxmimic ONNX policy (no '{key}' metadata)")
-    manifest = _parse_manifest(meta["mjxmimic/manifest"], path)
-    tensors = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
-    policy: dict[str, dict[str, np.ndarray]] = {}
-    for key, value in tensors.items():
-        if key.startswith("policy/"):
-            _, layer, part = key.split("/")
-            policy.setdefault(layer, {})[part] = value
-    params = {"normalizer": {"mean": tensors["normalizer/mean"], "std": tensors["normalizer/std"]},
-              "policy": policy}
-    clip = json.loads(meta["mjxmimic/clip"])
-    return PolicyFile(manifest=manifest, params=params, character_xml=meta["mjxmimic/character_xml"],
-                      clip_qpos=np.asarray(clip["qpos"], np.float64),
-                      clip_durations=np.asarray(clip["durations"], np.float64), path=path)
-
-
-# -------------------------------------------------------------------------------- either format
-
-
-def write(pf: PolicyFile, path: Path, fmt: str = "npz") -> Path:
-    if fmt not in FORMATS:
-        raise UserError(f"--format {fmt!r}: expected one of {', '.join(FORMATS)}")
-    return write_onnx(pf, path) if fmt == "onnx" else write_npz(pf, path)
-
-
-def read(path: str | Path) -> PolicyFile:
-    """Read an exported policy (.npz or .onnx); a run folder means its policy.npz."""
-    path = Path(path)
-    if path.is_dir():
-        cand = path / f"{DEFAULT_NAME}.npz"
-        if not cand.is_file():
-            raise UserError(f"{path}: a run folder without {cand.name} (write it with `mjxmimic export {path}`)")
-        path = cand
-    if not path.is_file():
-        raise UserError(f"{path}: policy file not found")
-    if path.suffix == ".onnx":
-        return read_onnx(path)
-    return read_npz(path)
-
-
-# --------------------------------------------------------------------------- from a run folder
+from mjxmimic.core.character import load_character, resolve_xml
+from mjxmimic.portable import policy_file
+from mjxmimic.portable.policy_file import PolicyFile
+from mjxmimic.runs import folder
 
 
 def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.ndarray:
@@ -455,110 +28,56 @@ def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.n
     return np.asarray(start_times(jax.random.PRNGKey(seed), episodes, clip_duration), np.float32)
 
 
-def params_from_run(run_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(`mjxmimic.learn.ppo.export_params` of RUN's latest checkpoint, as numpy; the checkpoint's meta).
-
-    Restores only the "params" and "learner" items (mjxmimic.runs.checkpoint's layout) into a template
-    of the run's networks, as numpy, so no environment is built and a checkpoint written on a GPU
-    exports on a CPU. Imports JAX (orbax). tests/test_export_playback.py checks the result against
-    export_params of the saved state.
-    """
-    import jax
-    import orbax.checkpoint as ocp
-    from brax.training import types as brax_types
-    from brax.training.acme import running_statistics
-
-    from mjxmimic.runs import checkpoint
-    from mjxmimic.core import config as config_lib
-    from mjxmimic.core.character import load_character, resolve_xml
-    from mjxmimic.task.observation import observation_size
-    from mjxmimic.learn.ppo import make_networks
-
-    step = checkpoint.latest_checkpoint(run_dir)
-    if step is None:
-        raise UserError(f"{run_dir}: no checkpoint found in {checkpoint.checkpoint_dir(run_dir)}")
-    cfg = config_lib.load(Path(run_dir) / "config.json")
-    character = load_character(resolve_xml(cfg.character.xml))
-    obs_size, act_size = observation_size(character.model.nbody), character.action_size
-    networks = make_networks(obs_size, act_size, cfg)
-    key = jax.random.PRNGKey(0)
-    template = {
-        "params": {"policy": networks.policy_network.init(key), "value": networks.value_network.init(key)},
-        "learner": {"normalizer": running_statistics.init_state(jax.ShapeDtypeStruct((obs_size,), np.float32)),
-                    "key": key, "env_steps": brax_types.UInt64(hi=0, lo=0)},
+def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any, checkpoint: int) -> dict[str, Any] | None:
+    """The manifest's training.eval from RUN/eval.json (None without one), with the start times of
+    its episodes so that CPU playback starts where the MJX evaluation did."""
+    ev = folder.read_eval(run_dir)
+    if ev is None:
+        return None
+    episodes = int(ev.get("episodes", config.run.eval_episodes))
+    seed = int(ev.get("seed", config.run.seed + 1))
+    duration = float(np.sum(np.asarray(clip.durations)[:-1]))
+    starts = ev.get("start_times")
+    if starts is None:
+        starts = mjx_eval_start_times(seed, episodes, duration).tolist()
+    out = {
+        "nr": ev.get("nr"), "fall_rate": ev.get("fall_rate"), "survival_s": ev.get("survival_s"),
+        "pose_error_rad": ev.get("pose_error_rad"), "end_effector_error_m": ev.get("end_effector_error_m"),
+        "episodes": episodes, "seed": seed, "checkpoint": ev.get("checkpoint", ev.get("samples")),
+        "start_times": [float(t) for t in starts],
     }
-    template = jax.tree_util.tree_map(np.asarray, template)
-    as_numpy = {name: ocp.args.PyTreeRestore(tree, restore_args=jax.tree_util.tree_map(
-        lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree)) for name, tree in template.items()}
-    options = ocp.CheckpointManagerOptions(create=False)
-    with ocp.CheckpointManager(checkpoint.checkpoint_dir(run_dir), options=options,
-                               item_names=("params", "learner", "meta")) as mngr:
-        out = mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore(), **as_numpy))
-    try:
-        normalizer = out["learner"]["normalizer"]
-        params = {"normalizer": {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)},
-                  "policy": {name: {k: np.asarray(v) for k, v in layer.items()}
-                             for name, layer in out["params"]["policy"]["params"].items()}}
-    except (KeyError, TypeError) as err:
-        raise UserError(f"{run_dir}: checkpoint {step} does not hold a policy and normaliser where "
-                        f"expected ({err})") from None
-    meta = dict(out["meta"] or {})
-    meta["checkpoint"] = int(step)
-    return params, meta
+    of = out["checkpoint"]
+    if of is not None and int(of) != checkpoint:
+        out["note"] = f"{folder.EVAL} is of checkpoint {of}, the exported policy of {checkpoint}"
+    return out
 
 
 def policy_file_from_run(run_dir: Path) -> PolicyFile:
     """The portable contents of RUN's latest checkpoint (in memory; imports JAX)."""
-    from mjxmimic.core.character import resolve_xml
     from mjxmimic.motion.clip import load_clip_source
 
     run_dir = Path(run_dir)
-    if not run_dir.is_dir():
-        raise UserError(f"{run_dir}: run folder not found")
-    config = config_lib.load(run_dir / "config.json")
+    config = folder.load_config(run_dir)
     character = load_character(resolve_xml(config.character.xml))
     clip = load_clip_source(config.clip.name, character)
-    params, meta = params_from_run(run_dir)
+    params, meta = folder.load_policy_params(run_dir)
 
     training: dict[str, Any] = {"run": str(run_dir.resolve()), "checkpoint": meta["checkpoint"],
                                 "samples": int(meta.get("env_steps", meta["checkpoint"])),
                                 "train_seconds": meta.get("elapsed_seconds")}
-    eval_path = run_dir / "eval.json"
-    if eval_path.is_file():
-        try:
-            ev = json.loads(eval_path.read_text())
-        except json.JSONDecodeError as err:
-            raise UserError(f"{eval_path}: not valid JSON ({err.msg} at line {err.lineno})") from None
-        episodes = int(ev.get("episodes", config.run.eval_episodes))
-        seed = int(ev.get("seed", config.run.seed + 1))
-        duration = float(np.sum(np.asarray(clip.durations)[:-1]))
-        starts = ev.get("start_times")
-        if starts is None:
-            starts = mjx_eval_start_times(seed, episodes, duration).tolist()
-        training["eval"] = {
-            "nr": ev.get("nr"), "fall_rate": ev.get("fall_rate"), "survival_s": ev.get("survival_s"),
-            "pose_error_rad": ev.get("pose_error_rad"), "end_effector_error_m": ev.get("end_effector_error_m"),
-            "episodes": episodes, "seed": seed, "checkpoint": ev.get("checkpoint", ev.get("samples")),
-            "start_times": [float(t) for t in starts],
-        }
-        of = training["eval"]["checkpoint"]
-        if of is not None and int(of) != meta["checkpoint"]:
-            training["eval"]["note"] = (f"eval.json is of checkpoint {of}, the exported policy of "
-                                        f"{meta['checkpoint']}")
-    pf = make_policy_file(config, character, clip, params, training)
+    ev = _training_eval(run_dir, config, clip, meta["checkpoint"])
+    if ev is not None:
+        training["eval"] = ev
+    pf = policy_file.make_policy_file(config, character, clip, params, training)
     pf.path = run_dir
     return pf
 
 
 def export_run(run_dir: Path, out: Path | None = None, fmt: str = "npz") -> tuple[Path, PolicyFile]:
     """Write RUN's latest checkpoint as one portable file (default RUN/policy.<fmt>)."""
-    run_dir = Path(run_dir)
-    if fmt not in FORMATS:
-        raise UserError(f"--format {fmt!r}: expected one of {', '.join(FORMATS)}")
-    if fmt == "onnx":
-        _onnx()  # fail before the slow part
+    policy_file.check_format(fmt)  # fail before the slow part
     pf = policy_file_from_run(run_dir)
-    out = Path(out) if out is not None else run_dir / f"{DEFAULT_NAME}.{fmt}"
-    write(pf, out, fmt)
+    out = Path(out) if out is not None else folder.policy_path(run_dir, fmt)
+    policy_file.write(pf, out, fmt)
     pf.path = out
     return out, pf

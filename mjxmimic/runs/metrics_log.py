@@ -12,6 +12,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from mjxmimic.runs.folder import metrics_path, tensorboard_dir
+
 
 def _plain(value: Any) -> Any:
     if hasattr(value, "item"):
@@ -23,13 +25,13 @@ def _plain(value: Any) -> Any:
 
 class MetricsLog:
     def __init__(self, run_dir: Path, tensorboard: bool = True):
-        self.path = Path(run_dir) / "metrics.jsonl"
+        self.path = metrics_path(run_dir)
         self._file = self.path.open("a")
         self._tb = None
         if tensorboard:
             from tensorboardX import SummaryWriter
 
-            self._tb = SummaryWriter(str(Path(run_dir) / "tb"))
+            self._tb = SummaryWriter(str(tensorboard_dir(run_dir)))
 
     def write(self, step: int, wall: float, values: dict[str, Any]) -> dict:
         record = {"step": int(step), "wall": round(float(wall), 3)}
@@ -57,7 +59,7 @@ class MetricsLog:
 def read(run_dir: Path) -> list[dict]:
     """Every record of RUN/metrics.jsonl ([] when there is none); a line cut short by a crash is skipped."""
     try:
-        text = (Path(run_dir) / "metrics.jsonl").read_text()
+        text = metrics_path(run_dir).read_text()
     except OSError:
         return []
     rows = []

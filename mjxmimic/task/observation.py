@@ -1,30 +1,59 @@
-"""The policy's observation (DEEPMIMIC.md): one function for training and CPU playback.
+"""Observation terms (DEEPMIMIC.md): small pure functions of the simulated kinematics and the
+motion state, concatenated in the order that `env.observations` names them. numpy or jax.numpy
+via `xp`; the same functions serve training and CPU playback.
 
-phase; root height; for every body: position relative to the root, its forward (x) and up (z)
-axes, linear and angular velocity, all rotated into the heading frame (the rotation about the up
-axis that undoes the root's facing). 1 + 1 + 15 x (3 + 6 + 3 + 3) = 227 numbers for the humanoid.
+The default, the released code's 227 numbers for the humanoid: phase; root height; for every body
+its position relative to the root, its forward (x) and up (z) axes, linear and angular velocity,
+all rotated into the heading frame (the rotation about the up axis that undoes the root's facing).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 from mjxmimic.core import quat
+from mjxmimic.core.errors import UserError
 from mjxmimic.core.kinematics import ROOT_BODY, Kin, body_linvel, root_yaw
 
-
-def observation_size(nbody: int) -> int:
-    return 2 + 15 * (nbody - 1)
+DEFAULT = "phase,root_height,bodies"
 
 
-def observation(k: Kin, phase: Any, xp: Any) -> Any:
+def phase(k: Kin, clip_phase: Any, xp: Any) -> Any:
+    return xp.reshape(clip_phase, (1,))
+
+
+def root_height(k: Kin, clip_phase: Any, xp: Any) -> Any:
+    return k.xipos[ROOT_BODY, 2:3]
+
+
+def bodies(k: Kin, clip_phase: Any, xp: Any) -> Any:
     yaw = -root_yaw(k, xp)
-    bodies = slice(1, None)
-    pos = quat.rotate_yaw(k.xipos[bodies] - k.xipos[ROOT_BODY], yaw, xp)
-    forward = quat.rotate_yaw(k.xmat[bodies, :, 0], yaw, xp)
-    up = quat.rotate_yaw(k.xmat[bodies, :, 2], yaw, xp)
-    lin = quat.rotate_yaw(body_linvel(k, xp)[bodies], yaw, xp)
-    ang = quat.rotate_yaw(k.cvel[bodies, :3], yaw, xp)
-    parts = [xp.reshape(phase, (1,)), k.xipos[ROOT_BODY, 2:3]]
-    parts += [xp.reshape(x, (-1,)) for x in (pos, forward, up, lin, ang)]
-    return xp.concatenate(parts)
+    rest = slice(1, None)
+    pos = quat.rotate_yaw(k.xipos[rest] - k.xipos[ROOT_BODY], yaw, xp)
+    forward = quat.rotate_yaw(k.xmat[rest, :, 0], yaw, xp)
+    up = quat.rotate_yaw(k.xmat[rest, :, 2], yaw, xp)
+    lin = quat.rotate_yaw(body_linvel(k, xp)[rest], yaw, xp)
+    ang = quat.rotate_yaw(k.cvel[rest, :3], yaw, xp)
+    return xp.concatenate([xp.reshape(x, (-1,)) for x in (pos, forward, up, lin, ang)])
+
+
+TERMS: dict[str, Callable[[Kin, Any, Any], Any]] = {"phase": phase, "root_height": root_height, "bodies": bodies}
+SIZES: dict[str, Callable[[int], int]] = {"phase": lambda nbody: 1, "root_height": lambda nbody: 1,
+                                          "bodies": lambda nbody: 15 * (nbody - 1)}
+
+
+def parse(names: str) -> tuple[str, ...]:
+    """'phase,root_height,bodies' -> the term names, checked."""
+    out = tuple(n.strip() for n in names.split(",") if n.strip())
+    unknown = [n for n in out if n not in TERMS]
+    if not out or unknown:
+        raise UserError(f"config key 'env.observations': {names!r} must name terms among {', '.join(TERMS)}")
+    return out
+
+
+def observation_size(nbody: int, names: str = DEFAULT) -> int:
+    return sum(SIZES[n](nbody) for n in parse(names))
+
+
+def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any) -> Any:
+    return xp.concatenate([TERMS[n](k, clip_phase, xp) for n in terms])

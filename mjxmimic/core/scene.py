@@ -1,0 +1,70 @@
+"""The physics scene: the character's MJCF at a physics rate and solver setting, plus one MuJoCo
+contact sensor per character geom that can touch the floor.
+
+Fall detection reads those sensors ("found": how many contacts the geom has with the floor), so it
+works the same on MJX-JAX, MJX-Warp and MuJoCo C, none of which expose their contact lists alike.
+Which geoms count as a fall is a mask over the sensors (`fall_mask`), chosen per clip at run time,
+so one compiled model serves clips with different fall-contact sets.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+
+from mjxmimic.core.character import Character
+
+FLOOR = "floor"
+
+
+class Scene(NamedTuple):
+    model: mujoco.MjModel
+    contact_geoms: np.ndarray  # (S,) the geom id that sensor i watches
+    contact_adr: np.ndarray  # (S,) sensordata address of sensor i's "found" count
+
+
+def _touches_floor(model: mujoco.MjModel, g: int, floor: int) -> bool:
+    """Whether geom g collides with the floor by MuJoCo's contype/conaffinity rule."""
+    return model.geom_bodyid[g] != 0 and bool(
+        (model.geom_contype[g] & model.geom_conaffinity[floor])
+        or (model.geom_contype[floor] & model.geom_conaffinity[g]))
+
+
+def build_scene(character: Character, physics_hz: int, solver_iterations: int, ls_iterations: int) -> Scene:
+    """The character's model with contact sensors, at the given physics rate and solver settings."""
+    spec = mujoco.MjSpec.from_file(str(character.xml_path))
+    base = character.model
+    floor = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_GEOM, FLOOR)
+    if floor < 0:
+        raise ValueError(f"{character.xml_path}: no geom named {FLOOR!r}")
+    watched = [g for g in range(base.ngeom) if _touches_floor(base, g, floor)]
+    for g in watched:
+        geom = spec.geoms[g]
+        if not geom.name:
+            geom.name = f"_geom{g}"
+        sensor = spec.add_sensor()
+        sensor.name = f"_floor_contact_{g}"
+        sensor.type = mujoco.mjtSensor.mjSENS_CONTACT
+        sensor.objtype = mujoco.mjtObj.mjOBJ_GEOM
+        sensor.objname = geom.name
+        sensor.reftype = mujoco.mjtObj.mjOBJ_GEOM
+        sensor.refname = FLOOR
+        sensor.intprm[0] = 1  # data: "found" only
+        sensor.intprm[1] = 0  # no reduction
+        sensor.intprm[2] = 1  # one slot
+    model = spec.compile()
+    model.opt.timestep = 1.0 / physics_hz
+    model.opt.iterations = solver_iterations
+    model.opt.ls_iterations = ls_iterations
+    adr = [model.sensor_adr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"_floor_contact_{g}")]
+           for g in watched]
+    return Scene(model=model, contact_geoms=np.array(watched, dtype=np.int32),
+                 contact_adr=np.array(adr, dtype=np.int32))
+
+
+def fall_mask(scene: Scene, character: Character, spec: str) -> np.ndarray:
+    """(S,) bool: which contact sensors end an episode for the fall-contact set `spec`."""
+    bodies = np.array(character.fall_bodies(spec))
+    return np.isin(scene.model.geom_bodyid[scene.contact_geoms], bodies)

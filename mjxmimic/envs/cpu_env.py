@@ -1,0 +1,118 @@
+"""The control step (`mjxmimic.envs.step`) on MuJoCo's C simulator with numpy: one character,
+one clip, one episode at a time. No JAX on this path, so an exported policy plays wherever numpy
+and mujoco do (the viewer, rendering, sim-to-sim NR).
+
+Time is kept in float32 as on MJX, so that both sample the same reference. With a converged
+contact solve one control step agrees with MJX to < 1e-3 in every observation entry, on the
+ground and in the air (tests/test_export_playback.py); with the gpu preset's 4 Newton iterations
+the two solvers stop at different points, which the sim-to-sim NR measures.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from mjxmimic.core.character import Character
+from mjxmimic.core.config import Config
+from mjxmimic.core.scene import build_scene
+from mjxmimic.envs import step as step_lib
+from mjxmimic.motion import library as motion_lib
+from mjxmimic.physics.cpu import CpuPhysics
+from mjxmimic.task import nr as nr_rule
+from mjxmimic.task import termination
+
+
+class Step(NamedTuple):
+    obs: np.ndarray
+    reward: float
+    done: bool
+    fell: bool
+    failed: bool  # a termination term fired (a fall, or a state the simulator lost)
+    truncated: bool  # the env's time limit, not a failure
+    clip_end: bool
+    metrics: dict[str, float]
+
+
+class CpuEnv:
+    """One character on one clip on MuJoCo's CPU simulator."""
+
+    def __init__(self, config: Config, character: Character, clip: Any):
+        env = config.env
+        self.config = config
+        self.character = character
+        self.clip = clip
+        self.scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations)
+        self.model = self.scene.model
+        self.spec = step_lib.make_spec(config, character, self.scene, [clip], np)
+        self.substeps = env.physics_hz // env.control_hz
+        self.physics = CpuPhysics(self.scene, self.spec.layout, self.substeps, env.torque_limit)
+        self.data = self.physics.data
+        self.control_dt = self.spec.control_dt
+        self.max_steps = self.spec.max_steps
+        self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
+        self.clip_duration = float(self.spec.lib.duration[0])
+        self.loop = bool(self.spec.lib.loop[0])
+        self.fall_contact = step_lib.fall_contact_spec(config, clip.name)
+        self.terminations = termination.evaluation_list(env.early_termination)
+        self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2))
+
+    @property
+    def time(self) -> float:
+        return float(self.motion.time)
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Reference (qpos, qvel) at clip time t, root shifted by the current root offset."""
+        qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
+        return motion_lib.shift_root(qpos, self.motion.root_offset, np), qvel
+
+    def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0)) -> np.ndarray:
+        """Put the character in (qpos, qvel) at clip time t; returns the observation."""
+        self.physics.init(qpos, qvel)
+        self.motion = step_lib.Motion(clip=0, time=np.float32(t), steps=int(steps),
+                                      root_offset=np.array(root_offset, dtype=np.float64))
+        kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
+        return step_lib.observe(self.spec, self.physics, kin, self.motion)
+
+    def reset_at(self, t: float) -> np.ndarray:
+        """The reference state at clip time t (RSI); returns the observation."""
+        qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
+        return self.set_state(qpos, qvel, t)
+
+    def step(self, action: Any, external_force: Any = None, grade_paper: bool = False) -> Step:
+        out = step_lib.control_step(self.spec, self.physics, self.data, self.motion,
+                                    np.asarray(action, np.float64), self.terminations, external_force, grade_paper)
+        self.motion = out.motion._replace(time=np.float32(out.motion.time), steps=int(out.motion.steps))
+        failed, timeout = bool(out.failed), bool(out.truncation) and not bool(out.failed)
+        metrics = {k: float(v) for k, v in out.metrics.items()}
+        return Step(obs=np.asarray(out.obs), reward=float(out.reward), done=bool(out.done),
+                    fell=bool(metrics["fell"]), failed=failed, truncated=timeout, clip_end=bool(out.clip_end),
+                    metrics=metrics)
+
+    def eval_horizon(self, t: float) -> int:
+        return int(step_lib.eval_horizon(self.spec, 0, np.float32(t), np))
+
+    def start_times(self, n: int, seed: int) -> np.ndarray:
+        """n start times ~ U[0, clip duration) from a seeded numpy generator (the interval that
+        MJX evaluation draws from; its own times come from JAX's generator, see export)."""
+        return np.random.default_rng(seed).uniform(0.0, self.clip_duration, size=n).astype(np.float32)
+
+    def episode(self, policy: Callable[[np.ndarray], np.ndarray], t0: float,
+                on_step: Callable[[CpuEnv, Step], Any] | None = None) -> dict[str, Any]:
+        """One evaluation episode from the reference state at t0, counted by `mjxmimic.task.nr`.
+        on_step(env, step) after every step (a viewer); returning False ends the episode there."""
+        obs = self.reset_at(t0)
+        horizon = self.eval_horizon(t0)
+        acc = nr_rule.start((), np)
+        for k in range(horizon):
+            s = self.step(policy(obs), grade_paper=True)
+            acc = nr_rule.add_step(acc, k, horizon, s.reward, s.metrics["reward_paper"], s.failed, s.clip_end,
+                                   s.metrics["error/pose"], s.metrics["error/end_effector"], np)
+            if (on_step is not None and on_step(self, s) is False) or not acc["alive"]:
+                break
+            obs = s.obs
+        out = {k: float(acc[k]) for k in nr_rule.FIELDS}
+        out.update(start_time=float(t0), horizon=horizon, nr=out["reward"] / horizon)
+        return out

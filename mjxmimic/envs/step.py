@@ -1,0 +1,177 @@
+"""One control step, written once for every backend and both array modules:
+
+    action -> PD targets (reference pose at the step's end) -> events (external forces)
+    -> `substeps` of PD law + physics -> kinematics of the body and the reference
+    -> reward terms -> terminations -> observation terms
+
+The MJX env runs it vmapped under jit with jax.numpy; the CPU env runs it on MuJoCo C with numpy.
+Per-env motion state (`Motion`: clip id, clip time, step count, root offset) is explicit data that
+reset draws and the step advances, so every env may follow its own clip.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from mjxmimic.core.character import Character, default_fall_contact
+from mjxmimic.core.config import Config
+from mjxmimic.core.errors import UserError
+from mjxmimic.core.layout import Layout, make_layout
+from mjxmimic.core.scene import Scene, fall_mask
+from mjxmimic.motion import library as motion_lib
+from mjxmimic.physics.backend import Physics
+from mjxmimic.physics.pd import action_to_targets
+from mjxmimic.task import observation as obs_terms
+from mjxmimic.task import reward as reward_terms
+from mjxmimic.task import termination
+
+
+class Motion(NamedTuple):
+    """Per-env motion state."""
+
+    clip: Any  # int clip id in the motion library
+    time: Any  # clip time (s), float32
+    steps: Any  # control steps since the reset
+    root_offset: Any  # (2,) horizontal shift of the reference root (reward.sync_root_position)
+
+
+class Spec(NamedTuple):
+    """What the step needs besides the backend: built once per env, arrays in the step's xp."""
+
+    layout: Layout
+    lib: motion_lib.MotionLib
+    fall_masks: Any  # (C, S) bool: per clip, the contact sensors that count as a fall
+    observations: tuple[str, ...]
+    rewards: tuple[reward_terms.Term, ...]
+    paper_rewards: tuple[reward_terms.Term, ...]
+    control_dt: float
+    max_steps: int
+    config: Config
+
+
+class Result(NamedTuple):
+    state: Any  # the backend's state
+    motion: Motion
+    obs: Any
+    reward: Any
+    done: Any  # failed | timeout | clip end
+    failed: Any  # a termination term fired (reward 0, value target 0)
+    truncation: Any  # the episode was cut without failing: a timeout, or a lost state (masked out of GAE)
+    clip_end: Any
+    metrics: dict[str, Any]
+
+
+def fall_contact_spec(config: Config, clip_name: str) -> str:
+    spec = config.clip.fall_contact
+    return default_fall_contact(clip_name) if spec == "auto" else spec
+
+
+def make_spec(config: Config, character: Character, scene: Scene, clips: list[Any], xp: Any,
+              weights: Any = None) -> Spec:
+    """The step's static data for `clips`, arrays converted with `xp.asarray`."""
+    masks = []
+    for clip in clips:
+        try:
+            masks.append(fall_mask(scene, character, fall_contact_spec(config, clip.name)))
+        except ValueError as err:
+            raise UserError(f"config key 'clip.fall_contact': {err}") from None
+    lib = motion_lib.build_motion_lib(clips, character, weights)
+    if xp is not np:
+        lib = lib._replace(**{k: xp.asarray(v) for k, v in lib._asdict().items() if k != "layout"})
+    env = config.env
+    return Spec(
+        layout=make_layout(character),
+        lib=lib,
+        fall_masks=xp.asarray(np.stack(masks)),
+        observations=obs_terms.parse(env.observations),
+        rewards=reward_terms.terms(config.reward.kind, config.reward.weights),
+        paper_rewards=reward_terms.terms("paper"),
+        control_dt=1.0 / env.control_hz,
+        max_steps=int(round(env.episode_seconds * env.control_hz)),
+        config=config,
+    )
+
+
+def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
+    xp = physics.xp
+    return obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp)
+
+
+def reset(spec: Spec, physics: Physics, clip: Any, t: Any) -> tuple[Any, Motion, Any]:
+    """(state, motion, obs): the reference state of `clip` at time t (RSI)."""
+    xp = physics.xp
+    t = xp.asarray(t, dtype=xp.float32)
+    qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
+    state = physics.init(qpos, qvel)
+    motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32))
+    return state, motion, observe(spec, physics, physics.kinematics(qpos, qvel), motion)
+
+
+def start_time_range(spec: Spec, clip: Any, xp: Any) -> Any:
+    """RSI draws t in [0, this): the clip's duration, less one control step for a non-looping clip
+    (so that at least one step remains)."""
+    dur = spec.lib.duration[clip]
+    return xp.where(spec.lib.loop[clip], dur, xp.maximum(dur - spec.control_dt, 0.0))
+
+
+def eval_horizon(spec: Spec, clip: Any, t: Any, xp: Any) -> Any:
+    """Steps of the NR horizon from start time t: the time limit for a looping clip, to the clip's
+    end otherwise, at least 1 (EVALUATION.md)."""
+    to_end = xp.ceil((spec.lib.duration[clip] - t) / spec.control_dt - 1e-4).astype(xp.int32)
+    return xp.where(spec.lib.loop[clip], spec.max_steps, xp.maximum(to_end, 1))
+
+
+def max_eval_horizon(spec: Spec) -> int:
+    """The longest NR horizon over the library's clips (the evaluation scan's length)."""
+    lib = spec.lib
+    bounds = [spec.max_steps if bool(lib.loop[c]) else int(np.ceil(float(lib.duration[c]) / spec.control_dt))
+              for c in range(len(lib.duration))]
+    return max(bounds)
+
+
+def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, action: Any,
+                 terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False) -> Result:
+    """One control step (the module docstring); no reset."""
+    xp, env, lib = physics.xp, spec.config.env, spec.lib
+    clip = motion.clip
+    t = motion.time + xp.asarray(spec.control_dt, xp.float32)
+    ref_qpos, ref_qvel = motion_lib.sample(lib, clip, t, xp)  # the unshifted root
+    targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
+    sub = physics.step(state, targets, external_force)
+    qpos, qvel = physics.qpos_qvel(sub.state)
+    sim = physics.kinematics(qpos, qvel)
+    offset = motion.root_offset
+    if spec.config.reward.sync_root_position:
+        offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
+    ref = physics.kinematics(motion_lib.shift_root(ref_qpos, offset, xp), ref_qvel)
+    r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
+
+    outcome = termination.Outcome(sim=sim, ref=ref, contacts=sub.contacts, fall_mask=spec.fall_masks[clip],
+                                  diverged=sub.diverged, max_joint_velocity=env.max_joint_velocity,
+                                  pose_termination_m=env.pose_termination_m)
+    fired = {name: termination.TERMS[name](outcome, xp) for name in terminations}
+    bad = fired.get("bad_state", xp.zeros((), bool))
+    failed = xp.zeros((), bool)
+    for flag in fired.values():
+        failed = failed | flag
+    steps = motion.steps + 1
+    timeout = steps >= spec.max_steps
+    clip_end = ~lib.loop[clip] & (t >= lib.duration[clip] - 1e-4)
+    done = failed | timeout | clip_end
+    r = xp.where(failed, 0.0, r)
+
+    motion = Motion(clip=clip, time=t, steps=steps, root_offset=offset)
+    obs = observe(spec, physics, sim, motion)
+    obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
+    metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}
+    if grade_paper:
+        paper, _ = reward_terms.reward(spec.paper_rewards, spec.layout, sim, ref, xp)
+        metrics["reward_paper"] = xp.where(failed, 0.0, xp.nan_to_num(paper))
+    metrics.update({"reward": r, "fell": fired.get("fall", xp.zeros((), bool)).astype(xp.float32),
+                    "lost_track": fired.get("pose_deviation", xp.zeros((), bool)).astype(xp.float32),
+                    "physics/reset_nan": bad.astype(xp.float32)})
+    truncation = (timeout & ~failed & ~clip_end) | bad
+    return Result(state=sub.state, motion=motion, obs=obs, reward=r, done=done, failed=failed,
+                  truncation=truncation, clip_end=clip_end, metrics=metrics)

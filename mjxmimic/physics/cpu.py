@@ -1,0 +1,76 @@
+"""MuJoCo C backend: one `MjData` stepped in place with numpy, for CPU playback, the viewer and
+the evaluation of exported policies. No JAX on this path."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from mjxmimic.core.kinematics import Kin
+from mjxmimic.core.layout import Layout
+from mjxmimic.core.scene import Scene
+from mjxmimic.physics.backend import Substeps
+from mjxmimic.physics.pd import Targets, pd_forces
+
+_DIVERGED = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
+             mujoco.mjtWarning.mjWARN_BADQPOS)
+
+
+class CpuPhysics:
+    """MuJoCo C physics of one character (the state is this object's own `MjData`)."""
+
+    name = "c"
+    xp = np
+
+    def __init__(self, scene: Scene, layout: Layout, substeps: int, torque_limit: str):
+        self.scene = scene
+        self.model = scene.model
+        self.layout = layout
+        self.substeps = substeps
+        self.torque_limit = torque_limit
+        self.dt = float(scene.model.opt.timestep)
+        self.data = mujoco.MjData(self.model)
+        self._scratch = mujoco.MjData(self.model)
+
+    def init(self, qpos: Any, qvel: Any) -> mujoco.MjData:
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[:] = qpos
+        self.data.qvel[:] = qvel
+        mujoco.mj_forward(self.model, self.data)
+        return self.data
+
+    def where(self, done: Any, fresh: Any, state: Any) -> Any:
+        return fresh if done else state
+
+    def qpos_qvel(self, state: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        return state.qpos.copy(), state.qvel.copy()
+
+    def _warnings(self, data: mujoco.MjData) -> int:
+        return sum(int(data.warning[w].number) for w in _DIVERGED)
+
+    def step(self, state: mujoco.MjData, targets: Targets, external_force: Any = None) -> Substeps:
+        data = state
+        warnings0 = self._warnings(data)
+        if external_force is not None:
+            data.xfrc_applied[:] = external_force
+        contacts = np.zeros(len(self.scene.contact_adr), bool)
+        for _ in range(self.substeps):
+            data.qfrc_applied[:] = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, np,
+                                             self.torque_limit)
+            mujoco.mj_step(self.model, data)
+            contacts |= data.sensordata[self.scene.contact_adr] > 0
+        data.xfrc_applied[:] = 0.0
+        return Substeps(state=data, contacts=contacts, diverged=self._warnings(data) > warnings0)
+
+    def kinematics(self, qpos: Any, qvel: Any) -> Kin:
+        d = self._scratch
+        d.qpos[:] = qpos
+        d.qvel[:] = qvel
+        mujoco.mj_kinematics(self.model, d)
+        mujoco.mj_comPos(self.model, d)
+        mujoco.mj_comVel(self.model, d)
+        return Kin(qpos=np.array(d.qpos), qvel=np.array(d.qvel), xipos=np.array(d.xipos),
+                   xmat=np.array(d.xmat).reshape(-1, 3, 3), cvel=np.array(d.cvel),
+                   com=np.array(d.subtree_com[1]))

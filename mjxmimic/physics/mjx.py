@@ -1,0 +1,106 @@
+"""MJX backends: impl='warp' (MuJoCo Warp, the GPU default) and impl='jax' (CPU and fallback).
+
+Written for one world and vmapped by the env. Under warp, contacts live in one pool shared by all
+worlds, so the data is made for `max_worlds` worlds at once (`naconmax`); resets merge with
+`Data.where`, which knows which warp fields are per world. Kinematics for observations and
+rewards always run on an impl='jax' copy of the model: they are pure JAX on any device, and
+warp has no `com_vel`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from mujoco import mjx
+
+from mjxmimic.core.errors import UserError
+from mjxmimic.core.kinematics import Kin, kin_from_data
+from mjxmimic.core.layout import Layout
+from mjxmimic.core.scene import Scene
+from mjxmimic.physics.backend import Substeps
+from mjxmimic.physics.pd import Targets, pd_forces
+
+BACKENDS = ("auto", "warp", "jax")
+
+
+def warp_available() -> bool:
+    """warp-lang importable and a CUDA GPU is JAX's default device."""
+    try:
+        import warp  # noqa: F401
+    except ImportError:
+        return False
+    return jax.default_backend() == "gpu"
+
+
+def resolve_backend(name: str) -> str:
+    """'auto' -> 'warp' on a CUDA GPU with warp-lang installed, else 'jax'."""
+    if name not in BACKENDS:
+        raise UserError(f"config key 'physics.backend': {name!r} is not one of {', '.join(BACKENDS)}")
+    if name == "auto":
+        return "warp" if warp_available() else "jax"
+    if name == "warp":
+        try:
+            import warp  # noqa: F401
+        except ImportError:
+            raise UserError("config key 'physics.backend': 'warp' needs warp-lang "
+                            "(pip install -e \".[warp]\")") from None
+    return name
+
+
+class MjxPhysics:
+    """One world of MJX physics (vmap it). `impl` is 'warp' or 'jax'."""
+
+    xp = jnp
+
+    def __init__(self, scene: Scene, layout: Layout, substeps: int, torque_limit: str, impl: str,
+                 max_worlds: int = 1, contacts_per_world: int = 32, constraints_per_world: int = 160):
+        self.name = impl
+        self.scene = scene
+        self.layout = layout
+        self.substeps = substeps
+        self.torque_limit = torque_limit
+        self.dt = float(scene.model.opt.timestep)
+        self.contact_adr = jnp.asarray(scene.contact_adr)
+        self.sys = mjx.put_model(scene.model, impl=impl)
+        if impl == "warp":
+            self._data0 = mjx.make_data(scene.model, impl="warp", naconmax=max_worlds * contacts_per_world,
+                                        njmax=constraints_per_world)
+        else:
+            self._data0 = mjx.make_data(self.sys)
+        # Kinematics of any pose on the pure-JAX model (see the module docstring).
+        self._kin_sys = self.sys if impl == "jax" else mjx.put_model(scene.model, impl="jax")
+        self._kin_data0 = self._data0 if impl == "jax" else mjx.make_data(self._kin_sys)
+
+    def init(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
+        return self._data0.replace(qpos=qpos, qvel=qvel)
+
+    def where(self, done: jax.Array, fresh: mjx.Data, state: mjx.Data) -> mjx.Data:
+        return state.where(done, fresh)
+
+    def qpos_qvel(self, state: mjx.Data) -> tuple[jax.Array, jax.Array]:
+        return state.qpos, state.qvel
+
+    def step(self, state: mjx.Data, targets: Targets, external_force: Any = None) -> Substeps:
+        if external_force is not None:
+            state = state.replace(xfrc_applied=external_force)
+
+        def substep(data, _):
+            forces = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, jnp, self.torque_limit)
+            data = mjx.step(self.sys, data.replace(qfrc_applied=forces))
+            return data, data.sensordata[self.contact_adr] > 0
+
+        data, contacts = jax.lax.scan(substep, state, None, length=self.substeps)
+        if external_force is not None:
+            data = data.replace(xfrc_applied=jnp.zeros_like(external_force))
+        return Substeps(state=data, contacts=jnp.any(contacts, axis=0), diverged=jnp.zeros((), bool))
+
+    def kinematics(self, qpos: jax.Array, qvel: jax.Array) -> Kin:
+        d = self._kin_data0.replace(qpos=qpos, qvel=qvel)
+        d = mjx.kinematics(self._kin_sys, d)
+        d = mjx.com_pos(self._kin_sys, d)
+        d = mjx.com_vel(self._kin_sys, d)
+        return kin_from_data(d, jnp)
+
+

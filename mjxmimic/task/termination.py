@@ -1,0 +1,58 @@
+"""Termination terms: each a pure function of one control step's outcome that says whether the
+episode failed there. The evaluation list ends episodes as EVALUATION.md says (falls, and states
+the simulator lost); training may add `pose_deviation`, MimicKit's remedy for a stay-up optimum
+(a body more than `env.pose_termination_m` from the reference). Time limits and the end of a
+non-looping clip are not failures and are handled by the step itself.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, NamedTuple
+
+from mjxmimic.core.kinematics import Kin
+
+
+class Outcome(NamedTuple):
+    """What a termination term may read."""
+
+    sim: Kin
+    ref: Kin
+    contacts: Any  # (S,) bool, floor-contact sensors that fired during the step
+    fall_mask: Any  # (S,) bool, the sensors that count as a fall for this env's clip
+    diverged: Any  # bool, the simulator's own divergence flag
+    max_joint_velocity: float
+    pose_termination_m: float
+
+
+def fall(o: Outcome, xp: Any) -> Any:
+    """A fall-contact body touched the floor (DeepMimic's early termination)."""
+    return xp.any(o.contacts & o.fall_mask)
+
+
+def bad_state(o: Outcome, xp: Any) -> Any:
+    """NaN, an exploding joint velocity, or a state the simulator flagged: reset and count it."""
+    finite = xp.all(xp.isfinite(o.sim.qpos)) & xp.all(xp.isfinite(o.sim.qvel))
+    return ~finite | xp.any(xp.abs(o.sim.qvel) > o.max_joint_velocity) | o.diverged
+
+
+def pose_deviation(o: Outcome, xp: Any) -> Any:
+    """Some body's centre is more than env.pose_termination_m from the reference's (training only)."""
+    gap = xp.sqrt(xp.sum((o.sim.xipos[1:] - o.ref.xipos[1:]) ** 2, axis=-1))
+    return xp.max(gap) > o.pose_termination_m
+
+
+TERMS: dict[str, Callable[[Outcome, Any], Any]] = {"fall": fall, "bad_state": bad_state,
+                                                   "pose_deviation": pose_deviation}
+EVALUATION = ("fall", "bad_state")
+
+
+def training_list(pose_termination_m: float, early_termination: bool = True) -> tuple[str, ...]:
+    names = ("fall",) if early_termination else ()
+    names += ("bad_state",)
+    if pose_termination_m > 0:
+        names += ("pose_deviation",)
+    return names
+
+
+def evaluation_list(early_termination: bool = True) -> tuple[str, ...]:
+    return EVALUATION if early_termination else ("bad_state",)
