@@ -85,12 +85,12 @@ def main() -> int:
 
 def policy_rows(args: argparse.Namespace) -> list[dict]:
     """Each run's latest checkpoint evaluated under every rate x solver setting."""
-    from mjxmimic.core import config as config_lib
-    from mjxmimic.commands.evaluate import evaluate_run
+    from mjxmimic.runs import folder
+    from mjxmimic.runs.evaluate_run import evaluate_run
 
     rows = []
     for run_dir in args.runs:
-        config = config_lib.load(run_dir / "config.json")
+        config = folder.load_config(run_dir)
         character, clips = load_env_inputs(config)
         for hz in args.rates:
             for iters, ls in args.solvers:

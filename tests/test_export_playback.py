@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from mjxmimic.runs import checkpoint
-from mjxmimic.runs import export
+from mjxmimic.portable import policy_file as policy_format
+from mjxmimic.runs import export, folder
 from mjxmimic.motion import library as motion
 from mjxmimic.core import quat
 from mjxmimic.core import config as config_lib
@@ -253,7 +254,7 @@ def test_numpy_policy_matches_the_jax_policy(hidden):
 
 
 def test_export_reads_the_checkpoint_like_export_params(run):
-    params, meta = export.params_from_run(run["dir"])
+    params, meta = folder.load_policy_params(run["dir"])
     want = run["params"]
     for k in ("mean", "std"):
         np.testing.assert_array_equal(params["normalizer"][k], want["normalizer"][k])
@@ -265,7 +266,7 @@ def test_export_reads_the_checkpoint_like_export_params(run):
 
 
 def test_export_round_trip(run, policy_file, config, env):
-    pf = export.read(policy_file)
+    pf = policy_format.read(policy_file)
     assert policy_file == run["dir"] / "policy.npz"
     m = pf.manifest
     assert m["format"] == "mjxmimic-policy" and m["format_version"] == 1
@@ -294,7 +295,7 @@ def test_export_round_trip(run, policy_file, config, env):
     np.testing.assert_array_equal(pf.clip_durations, clip.durations)
     assert set(m["arrays"]) == set(pf.arrays())
     # and writing what was read gives the same file contents
-    again = export.read(export.write_npz(pf, policy_file.parent / "again.npz"))
+    again = policy_format.read(policy_format.write_npz(pf, policy_file.parent / "again.npz"))
     assert again.manifest == pf.manifest
     for key, value in pf.arrays().items():
         np.testing.assert_array_equal(again.arrays()[key], value)
@@ -313,7 +314,7 @@ def test_onnx_export_runs_the_same_function(run, tmp_path):
     obs = np.random.default_rng(4).normal(size=(16, 227)).astype(np.float32)
     (action,) = ReferenceEvaluator(model).run(None, {"obs": obs})
     np.testing.assert_allclose(action, pf.policy()(obs), atol=1e-5)
-    back = export.read(out)
+    back = policy_format.read(out)
     assert back.manifest == pf.manifest
     for key, value in pf.arrays().items():
         np.testing.assert_array_equal(back.arrays()[key], value)
@@ -386,7 +387,7 @@ def test_sim_to_sim_nr_on_the_same_starts(run, policy_file):
     what the (randomised) policy scored on MJX. Only a coarse check: this policy falls within
     ~0.6 s, and MJX's plane-box contacts (see the ground parity test) shift fall times by a few
     steps; exactness is what the parity tests above prove."""
-    pf = export.read(policy_file)
+    pf = policy_format.read(policy_file)
     cpu = CpuEpisode(pf.config(), pf.character(), pf.clip())
     result = evaluate(cpu, pf.policy(), pf.manifest["training"]["eval"]["start_times"])
     np.testing.assert_allclose(result["start_times"], run["starts"])

@@ -36,7 +36,7 @@ def gl():
 def policy_file(tmp_path_factory, character):
     """An exported policy of random weights (numpy only: no training, no JAX)."""
     from mjxmimic.motion.clip import load_clip_source
-    from mjxmimic.runs.export import make_policy_file, write_npz
+    from mjxmimic.portable.policy_file import make_policy_file, write_npz
 
     rng = np.random.default_rng(0)
     sizes = [227, 32, 32, 56]

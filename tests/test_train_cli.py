@@ -19,9 +19,10 @@ import pytest
 from mjxmimic import cli
 from mjxmimic.runs import checkpoint
 from mjxmimic.core import config as config_lib
-from mjxmimic.commands.train import resolve_run, train
+from mjxmimic.commands.train import resolve_run
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs.metrics_log import read
+from mjxmimic.runs.train_loop import train
 from standin_env import StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
@@ -206,7 +207,7 @@ def test_ctrl_c_saves_a_checkpoint_and_exits_130(tmp_path):
 
 
 def test_eval_command_on_a_run(tmp_path, capsys):
-    from mjxmimic.commands.evaluate import evaluate_run
+    from mjxmimic.runs.evaluate_run import evaluate_run
 
     run_dir = tmp_path / "run"
     train(_standin_config(), run_dir, env=StandInEnv(), progress=False)

@@ -2,8 +2,8 @@
 
 Reads RUN/config.json, the latest checkpoint in RUN/checkpoints and (if present) RUN/eval.json,
 and writes RUN/policy.npz (or --out): network weights, observation normaliser, the character
-MJCF and the clip, and a manifest (mjxmimic.runs.export documents every key). `mjxmimic play` and
-`mjxmimic render` need nothing else. ONNX (--format onnx) needs the `onnx` package.
+MJCF and the clip, and a manifest (mjxmimic.portable.policy_file documents every key).
+`mjxmimic play` and `mjxmimic render` need nothing else. ONNX (--format onnx) needs `onnx`.
 """
 
 from __future__ import annotations

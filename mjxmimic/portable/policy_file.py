@@ -308,7 +308,8 @@ def _params(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
         if key.startswith("policy/"):
             _, layer, part = key.split("/")
             policy.setdefault(layer, {})[part] = value
-    return {"normalizer": {"mean": arrays["normalizer/mean"], "std": arrays["normalizer/std"]}, "policy": policy}
+    return {"normalizer": {"mean": arrays["normalizer/mean"], "std": arrays["normalizer/std"]},
+            "policy": policy}
 
 
 def read_npz(path: Path) -> PolicyFile:

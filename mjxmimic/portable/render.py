@@ -200,9 +200,9 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
                   seconds: float | None = None, width: int = 640, height: int = 480,
                   on_frame: Callable[[int], Any] | None = None) -> dict[str, Any]:
-    """Video of one episode of an exported policy (mjxmimic.portable.policy_file.PolicyFile) from the reference
-    state at clip time `start`, one frame per control step, until the episode ends (fall, clip
-    end, time limit) or `seconds` have passed."""
+    """Video of one episode of an exported policy (mjxmimic.portable.policy_file.PolicyFile) from
+    the reference state at clip time `start`, one frame per control step, until the episode ends
+    (fall, clip end, time limit) or `seconds` have passed."""
     from mjxmimic.envs.cpu_env import CpuEnv
 
     character = pf.character()

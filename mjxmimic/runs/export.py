@@ -28,7 +28,8 @@ def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.n
     return np.asarray(start_times(jax.random.PRNGKey(seed), episodes, clip_duration), np.float32)
 
 
-def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any, checkpoint: int) -> dict[str, Any] | None:
+def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any,
+                   checkpoint: int) -> dict[str, Any] | None:
     """The manifest's training.eval from RUN/eval.json (None without one), with the start times of
     its episodes so that CPU playback starts where the MJX evaluation did."""
     ev = folder.read_eval(run_dir)

@@ -1,0 +1,181 @@
+"""The run folder, owned here: every command that takes a run takes this folder and finds its
+parts through these names, so the layout is written down once.
+
+    RUN/config.json    the resolved config (mjxmimic.core.config), written before training starts
+    RUN/metrics.jsonl  one line per iteration and per evaluation (mjxmimic.runs.metrics_log)
+    RUN/tb/            the same scalars for TensorBoard
+    RUN/checkpoints/   orbax checkpoints named by env_steps (mjxmimic.runs.checkpoint)
+    RUN/eval.json      the latest NR evaluation (mjxmimic.runs.evaluate) with the run's summary
+    RUN/policy.npz     the exported policy (mjxmimic.portable.policy_file), or policy.onnx
+
+Paths, config, eval and policy files need no JAX (sweeps and `mjxmimic play` use them); the
+checkpoint functions import it when called.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
+
+if TYPE_CHECKING:
+    from mjxmimic.portable.policy_file import PolicyFile
+
+CONFIG = "config.json"
+METRICS = "metrics.jsonl"
+TENSORBOARD = "tb"
+CHECKPOINTS = "checkpoints"
+EVAL = "eval.json"
+POLICY = "policy"  # RUN/policy.<format>
+
+# Orbax writes one of these into a checkpoint's folder when the checkpoint is complete.
+_COMMIT_MARKERS = ("_CHECKPOINT_METADATA", "commit_success.txt")
+
+
+# ---- paths ---------------------------------------------------------------------------------------
+
+def config_path(run_dir: Path) -> Path:
+    return Path(run_dir) / CONFIG
+
+
+def metrics_path(run_dir: Path) -> Path:
+    return Path(run_dir) / METRICS
+
+
+def tensorboard_dir(run_dir: Path) -> Path:
+    return Path(run_dir) / TENSORBOARD
+
+
+def checkpoint_dir(run_dir: Path) -> Path:
+    """Absolute, as orbax requires."""
+    return Path(run_dir).resolve() / CHECKPOINTS
+
+
+def eval_path(run_dir: Path) -> Path:
+    return Path(run_dir) / EVAL
+
+
+def policy_path(run_dir: Path, fmt: str = "npz") -> Path:
+    """Where `mjxmimic export` writes by default and `play`/`render` look first."""
+    return Path(run_dir) / f"{POLICY}.{fmt}"
+
+
+# ---- the folder and its files --------------------------------------------------------------------
+
+def require(run_dir: Path) -> Path:
+    """RUN as a Path; a one-line error when it is not a folder."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise UserError(f"{run_dir}: run folder not found")
+    return run_dir
+
+
+def holds_run(run_dir: Path) -> bool:
+    """A run was started here (its config is written before anything else)."""
+    return config_path(run_dir).exists()
+
+
+def load_config(run_dir: Path) -> config_lib.Config:
+    """RUN's resolved config; a one-line error when the folder or its config is missing."""
+    path = config_path(require(run_dir))
+    if not path.is_file():
+        raise UserError(f"{run_dir}: not a run folder (no {CONFIG})")
+    return config_lib.load(path)
+
+
+def write_config(run_dir: Path, config: config_lib.Config) -> None:
+    """Create RUN if need be and write its config."""
+    Path(run_dir).mkdir(parents=True, exist_ok=True)
+    config_lib.save(config, config_path(run_dir))
+
+
+def read_eval(run_dir: Path) -> dict[str, Any] | None:
+    """RUN/eval.json, or None when there is none; a one-line error when it is not JSON."""
+    path = eval_path(run_dir)
+    if not path.is_file():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+
+
+def write_eval(run_dir: Path, result: dict[str, Any]) -> Path:
+    """Write RUN/eval.json whole (a temporary file renamed into place): a reader such as a
+    sweep's report never sees half of it."""
+    path = eval_path(run_dir)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(result, indent=2) + "\n")
+    tmp.replace(path)
+    return path
+
+
+# ---- checkpoints ---------------------------------------------------------------------------------
+
+def has_checkpoint(run_dir: Path) -> bool:
+    """A complete checkpoint is there (RUN/checkpoints/<steps>/ with orbax's commit marker);
+    reads the folder only, no JAX."""
+    root = checkpoint_dir(run_dir)
+    if not root.is_dir():
+        return False
+    return any(p.is_dir() and p.name.isdigit() and any((p / m).exists() for m in _COMMIT_MARKERS)
+               for p in root.iterdir())
+
+
+def require_checkpoint(run_dir: Path) -> int:
+    """env_steps of RUN's latest checkpoint; a one-line error when there is none (imports JAX)."""
+    from mjxmimic.runs import checkpoint
+
+    step = checkpoint.latest_checkpoint(run_dir)
+    if step is None:
+        raise UserError(f"{run_dir}: no checkpoint found in {checkpoint_dir(run_dir)}")
+    return step
+
+
+def load_policy_params(run_dir: Path, observation_size: int | None = None, action_size: int | None = None,
+                       step: int | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(policy params of RUN's latest (or given) checkpoint, laid out as
+    `mjxmimic.learn.ppo.export_params` gives them, as numpy; the checkpoint's meta, with
+    "checkpoint" = its env_steps).
+
+    Builds the run's networks only, no environment, so a checkpoint written on a GPU loads on a
+    CPU. The sizes default to those of the run's character; an env of other sizes (a stand-in)
+    passes its own. Imports JAX.
+    """
+    config = load_config(run_dir)
+    step = require_checkpoint(run_dir) if step is None else step
+    from mjxmimic.learn.ppo import make_networks
+    from mjxmimic.runs import checkpoint
+
+    if observation_size is None or action_size is None:
+        from mjxmimic.core.character import load_character, resolve_xml
+        from mjxmimic.task.observation import observation_size as observation_size_of
+
+        character = load_character(resolve_xml(config.character.xml))
+        observation_size, action_size = observation_size_of(character.model.nbody), character.action_size
+    networks = make_networks(observation_size, action_size, config)
+    return checkpoint.restore_policy(run_dir, networks, observation_size, step)
+
+
+def load_policy_file(source: Path, *, export_if_missing: bool = False) -> PolicyFile:
+    """An exported policy from a file (.npz or .onnx) or a run folder: its policy.npz, else, with
+    `export_if_missing`, its latest checkpoint exported in memory (that path imports JAX)."""
+    from mjxmimic.portable import policy_file
+
+    source = Path(source)
+    if not source.is_dir():
+        return policy_file.read(source)
+    path = policy_path(source)
+    if path.is_file():
+        return policy_file.read(path)
+    if not export_if_missing:
+        raise UserError(f"{source}: a run folder without {path.name} "
+                        f"(write it with `mjxmimic export {source}`)")
+    if not has_checkpoint(source):
+        raise UserError(f"{source}: neither a policy file nor a run folder with checkpoints")
+    from mjxmimic.runs.export import policy_file_from_run
+
+    return policy_file_from_run(source)

@@ -1,0 +1,276 @@
+"""The training loop: PPO on one run folder, from a fresh start or its latest checkpoint.
+
+What it writes (names from mjxmimic.runs.folder): the resolved config before the first step;
+a metrics line per iteration and per evaluation; a checkpoint every run.checkpoint_every
+samples, at the end, at run.max_seconds and on Ctrl-C; and at the end (done, or the target NR
+reached) eval.json: the final NR evaluation with the run's samples, wall-clock, steady-state
+samples/s and time to skill.
+
+run.max_seconds bounds one call (compilation included); the run stops cleanly with a checkpoint
+and continues on resume, up to run.total_samples. Time to skill is the wall-clock since the
+first call's start (summed over resumed calls, compilation included) when an evaluation first
+reached run.target_nr.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+from mjxmimic.core import config as config_lib
+from mjxmimic.runs import folder
+
+
+@dataclasses.dataclass
+class Outcome:
+    """How a call of `train` ended, for the command to report."""
+
+    exit_code: int
+    reason: str  # "done", "target", "max_seconds", "interrupted"
+    env_steps: int
+    iterations: int
+    summary: dict
+    final_eval: dict | None = None  # what eval.json holds, when this call wrote it
+
+
+class _StopFlag:
+    """First Ctrl-C asks the loop to stop after the current iteration (then checkpoint, exit 130);
+    a second one interrupts at once."""
+
+    def __init__(self):
+        self.requested = False
+        self._previous = None
+
+    def __enter__(self):
+        try:
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        except ValueError:  # not the main thread
+            self._previous = None
+        return self
+
+    def _handle(self, signum, frame):
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+def _device_info() -> dict:
+    """The accelerator a run trained on, for its summary (so results name their hardware)."""
+    import jax
+
+    devices = jax.local_devices()
+    return {"device": f"{len(devices)} x {devices[0].device_kind}", "platform": devices[0].platform,
+            "jax": jax.__version__}
+
+
+def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
+          env_factory: Callable | None = None, start_time: float | None = None,
+          progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
+    """Train (or continue) the run in `run_dir`. `env`/`env_factory` default to mjxmimic.envs.mjx_env.make_env
+    (tests pass a stand-in). `start_time`: the command's start (time-to-skill counts from it)."""
+    t_start = time.time() if start_time is None else start_time
+    import jax
+
+    from mjxmimic.runs import checkpoint
+    from mjxmimic.runs.evaluate import Evaluator
+    from mjxmimic.runs.metrics_log import MetricsLog
+    from mjxmimic.learn.ppo import export_params, make_trainer
+
+    if env is None:
+        if env_factory is None:
+            from mjxmimic.envs.mjx_env import make_env as env_factory
+        env = env_factory(config)
+    trainer = make_trainer(env, config)
+    run_cfg = config.run
+
+    if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
+        folder.write_config(run_dir, config)
+
+    ts = trainer.init(run_cfg.seed)
+    meta: dict[str, Any] = {}
+    if resume:
+        restored, meta = checkpoint.restore(run_dir, ts)
+        # fresh env states (not checkpointed), drawn from the restored key
+        restored = restored.replace(env_state=trainer.reset_envs(
+            jax.random.fold_in(restored.key, int(meta["env_steps"]) % (2**31))))
+        del ts
+        ts = trainer.place(restored)
+    prior_elapsed = float(meta.get("elapsed_seconds", 0.0))
+    env_steps = int(meta.get("env_steps", 0))
+    iterations = int(meta.get("iterations", 0))
+    time_to_skill = meta.get("time_to_skill_s")
+    last_eval_steps = int(meta.get("last_eval_steps", 0))
+    last_ckpt_steps = env_steps
+    spi = trainer.samples_per_iteration
+
+    evaluator = Evaluator(env, config, trainer.make_policy)
+    eval_seed = run_cfg.seed + 1
+
+    def elapsed() -> float:
+        return prior_elapsed + time.time() - t_start
+
+    log = MetricsLog(run_dir)
+    state = {"last_eval": None, "steady_samples": 0, "steady_seconds": 0.0, "cache_after_first": None,
+             "iter_seconds": 0.0, "eval_seconds": 0.0}
+
+    def run_eval() -> dict:
+        nonlocal last_eval_steps, time_to_skill
+        t = time.time()
+        result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
+        state["eval_seconds"] = time.time() - t
+        last_eval_steps = env_steps
+        if run_cfg.target_nr > 0 and time_to_skill is None and result["nr"] >= run_cfg.target_nr:
+            time_to_skill = elapsed()
+        if time_to_skill is not None:
+            result["time_to_skill_s"] = time_to_skill
+        log.write(env_steps, elapsed(), {"iteration": iterations,
+                                         **{f"eval/{k}": v for k, v in result.items()}})
+        state["last_eval"] = (env_steps, result)
+        return result
+
+    def save_checkpoint() -> None:
+        nonlocal last_ckpt_steps
+        checkpoint.save(run_dir, ts, iterations=iterations, elapsed_seconds=elapsed(),
+                        extra={"last_eval_steps": last_eval_steps, "time_to_skill_s": time_to_skill,
+                               "samples_per_iteration": spi})
+        last_ckpt_steps = env_steps
+
+    def summary(reason: str) -> dict:
+        out = {"reason": reason, "samples": env_steps, "iterations": iterations,
+               "train_seconds": elapsed(), "samples_per_iteration": spi,
+               "num_envs": config.ppo.num_envs, "unroll_length": config.ppo.unroll_length,
+               "physics_hz": config.env.physics_hz, "solver_iterations": config.env.solver_iterations,
+               "policy_hidden": list(config.ppo.policy_hidden), **_device_info()}
+        if state["steady_seconds"] > 0:
+            out["samples_per_s_steady"] = state["steady_samples"] / state["steady_seconds"]
+        if state["cache_after_first"] is not None:
+            out["recompiled"] = trainer.train_step._cache_size() != state["cache_after_first"]
+        if time_to_skill is not None:
+            out["time_to_skill_s"] = time_to_skill
+        return out
+
+    reason = "done"
+    final = None
+    bar = _Progress(progress, run_cfg.total_samples, env_steps)
+    next_eval = (last_eval_steps // run_cfg.eval_every + 1) * run_cfg.eval_every
+    next_ckpt = (env_steps // run_cfg.checkpoint_every + 1) * run_cfg.checkpoint_every
+    first_this_call = True
+    try:
+        if not resume and run_cfg.eval_at_start and env_steps == 0:
+            result = run_eval()
+            bar.note(f"untrained policy: NR {result['nr']:.3f}")
+        with _StopFlag() as stop, bar:
+            while env_steps < run_cfg.total_samples:
+                if stop.requested:
+                    reason = "interrupted"
+                    break
+                if run_cfg.max_seconds > 0 and (time.time() - t_start) + state["iter_seconds"] >= run_cfg.max_seconds:
+                    reason = "max_seconds"
+                    break
+                t = time.time()
+                ts, metrics = trainer.train_step(ts)
+                metrics = jax.device_get(metrics)
+                dt = time.time() - t
+                iterations += 1
+                env_steps += spi
+                state["iter_seconds"] = dt
+                if first_this_call:
+                    first_this_call = False
+                    state["cache_after_first"] = trainer.train_step._cache_size()
+                else:
+                    state["steady_samples"] += spi
+                    state["steady_seconds"] += dt
+                record = {k: float(v) for k, v in metrics.items()}
+                log.write(env_steps, elapsed(), {"iteration": iterations, "samples_per_s": spi / dt, **record})
+                bar.update(env_steps, spi / dt, record.get("reward", math.nan))
+                if on_iteration is not None:
+                    on_iteration(iterations, record)
+
+                if env_steps >= next_eval:
+                    next_eval = (env_steps // run_cfg.eval_every + 1) * run_cfg.eval_every
+                    result = run_eval()
+                    bar.note(f"eval at {env_steps:,} samples: NR {result['nr']:.3f}, "
+                             f"fall rate {result['fall_rate']:.2f}")
+                    if time_to_skill is not None and run_cfg.target_nr > 0:
+                        reason = "target"
+                        break
+                if env_steps >= next_ckpt:
+                    next_ckpt = (env_steps // run_cfg.checkpoint_every + 1) * run_cfg.checkpoint_every
+                    save_checkpoint()
+    except KeyboardInterrupt:
+        reason = "interrupted"
+
+    # Everything below also runs after Ctrl-C: the state in `ts` is whole (the step either
+    # finished or never started; a donated-but-unassigned state cannot happen with the flag).
+    try:
+        if not any(getattr(x, "is_deleted", lambda: False)() for x in jax.tree_util.tree_leaves(ts)):
+            if last_ckpt_steps != env_steps or checkpoint.latest_checkpoint(run_dir) is None:
+                save_checkpoint()
+        if reason in ("done", "target"):
+            if state["last_eval"] is not None and state["last_eval"][0] == env_steps:
+                final = dict(state["last_eval"][1])
+            else:
+                final = run_eval()
+            final.update(summary(reason))
+            folder.write_eval(run_dir, final)
+        out = summary(reason)
+        log.write(env_steps, elapsed(), {"iteration": iterations, **{f"run/{k}": v for k, v in out.items()
+                                                                      if isinstance(v, (int, float))}})
+    finally:
+        log.close()
+    return Outcome(exit_code=130 if reason == "interrupted" else 0, reason=reason, env_steps=env_steps,
+                   iterations=iterations, summary=out, final_eval=final)
+
+
+class _Progress:
+    """Progress to stderr: a rich bar (samples, samples/s, mean reward per step) when `mode` is
+    True, a plain line every 30 s when it is "plain" (logs of non-interactive runs), else nothing."""
+
+    def __init__(self, mode: bool | str, total: int, completed: int):
+        self.mode = mode
+        self.total, self.completed = total, completed
+        self._progress = None
+        self._last_line = time.time()
+
+    def __enter__(self):
+        if self.mode is True:
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self._progress = Progress(
+                TextColumn("[bold]train"), BarColumn(),
+                TextColumn("{task.completed:,.0f}/{task.total:,.0f} samples"),
+                TextColumn("{task.fields[sps]:,.0f} samples/s"),
+                TextColumn("reward {task.fields[reward]:.3f}"),
+                TimeElapsedColumn(), console=Console(stderr=True))
+            self._progress.__enter__()
+            self._task = self._progress.add_task("train", total=self.total, completed=self.completed,
+                                                 sps=0.0, reward=float("nan"))
+        return self
+
+    def update(self, completed: int, sps: float, reward: float) -> None:
+        if self._progress is not None:
+            self._progress.update(self._task, completed=completed, sps=sps, reward=reward)
+        elif self.mode == "plain" and time.time() - self._last_line >= 30.0:
+            self._last_line = time.time()
+            print(f"train: {completed:,}/{self.total:,} samples, {sps:,.0f} samples/s, reward {reward:.3f}",
+                  file=sys.stderr, flush=True)
+
+    def note(self, text: str) -> None:
+        if self._progress is not None:
+            self._progress.console.print(text)
+        elif self.mode == "plain":
+            print(f"train: {text}", file=sys.stderr, flush=True)
+
+    def __exit__(self, *exc):
+        if self._progress is not None:
+            self._progress.__exit__(*exc)

@@ -1,0 +1,60 @@
+"""mjxmimic.runs.folder: the run folder's one owner. Its errors are one line naming the folder, and
+it (with the policy file format) stays importable without JAX, so sweeps and `play` can use it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
+from mjxmimic.runs import folder
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def test_folder_and_policy_file_import_without_jax():
+    code = ("import sys, mjxmimic.runs.folder, mjxmimic.portable.policy_file; "
+            "sys.exit(3 if any(m == 'jax' or m.startswith('jax.') for m in sys.modules) else 0)")
+    assert subprocess.run([sys.executable, "-c", code], cwd=REPO, timeout=120, check=False).returncode == 0
+
+
+def test_missing_folder_config_and_policy_are_one_line_errors(tmp_path):
+    with pytest.raises(UserError, match="run folder not found"):
+        folder.load_config(tmp_path / "missing")
+    with pytest.raises(UserError, match=r"not a run folder \(no config.json\)"):
+        folder.load_config(tmp_path)
+    with pytest.raises(UserError, match="without policy.npz"):
+        folder.load_policy_file(tmp_path)
+    with pytest.raises(UserError, match="neither a policy file nor a run folder with checkpoints"):
+        folder.load_policy_file(tmp_path, export_if_missing=True)
+    with pytest.raises(UserError, match="policy file not found"):
+        folder.load_policy_file(tmp_path / "policy.npz")
+
+
+def test_config_and_eval_round_trip(tmp_path):
+    run_dir = tmp_path / "run"
+    config = config_lib.make_config("cpu")
+    assert not folder.holds_run(run_dir)
+    folder.write_config(run_dir, config)
+    assert folder.holds_run(run_dir) and folder.load_config(run_dir) == config
+    assert folder.read_eval(run_dir) is None
+    folder.write_eval(run_dir, {"nr": 0.5})
+    assert folder.read_eval(run_dir) == {"nr": 0.5}
+    assert sorted(p.name for p in run_dir.iterdir()) == sorted([folder.CONFIG, folder.EVAL])  # no .tmp left
+    folder.eval_path(run_dir).write_text("{not json")
+    with pytest.raises(UserError, match="eval.json: not valid JSON"):
+        folder.read_eval(run_dir)
+
+
+def test_has_checkpoint_needs_a_complete_one(tmp_path):
+    assert not folder.has_checkpoint(tmp_path)
+    step = folder.checkpoint_dir(tmp_path) / "512"
+    step.mkdir(parents=True)
+    assert not folder.has_checkpoint(tmp_path)  # orbax has not committed it
+    (step / "_CHECKPOINT_METADATA").write_text(json.dumps({}))
+    assert folder.has_checkpoint(tmp_path)
