@@ -155,7 +155,8 @@ def load_policy_params(run_dir: Path, observation_size: int | None = None, actio
         from mjxmimic.task.observation import observation_size as observation_size_of
 
         character = load_character(resolve_xml(config.character.xml))
-        observation_size, action_size = observation_size_of(character.model.nbody), character.action_size
+        observation_size = observation_size_of(character.model.nbody, config.env.observations)
+        action_size = character.action_size
     networks = make_networks(observation_size, action_size, config)
     return checkpoint.restore_policy(run_dir, networks, observation_size, step)
 
