@@ -12,8 +12,8 @@ seconds=$1; shift
 export PYTHONUNBUFFERED=1
 own_gpu=0
 if [ $# -gt 1 ] && [ "$(nvidia-smi -L 2>/dev/null | wc -l)" -ge $# ]; then own_gpu=1; fi
-if [ "$own_gpu" = 1 ]; then export XLA_PYTHON_CLIENT_MEM_FRACTION=0.9
-else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.9/$#, 2))"); fi
+if [ "$own_gpu" = 1 ]; then export XLA_PYTHON_CLIENT_MEM_FRACTION=0.75
+else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2))"); fi
 pids=()
 i=0
 for spec in "$@"; do

@@ -49,6 +49,15 @@ def resolve_backend(name: str) -> str:
     return name
 
 
+def _quiet_solver_limits(sys: mjx.Model) -> mjx.Model:
+    """Warp prints a line per world and step when the solver or line search stops at its
+    iteration limit, which a few iterations (the presets' 4) do by design; pool overflows stay loud."""
+    from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType
+
+    quiet = int(OverflowType.ALL) & ~int(OverflowType.ITERATIONS) & ~int(OverflowType.LS_ITERATIONS)
+    return sys.replace(opt=sys.opt.replace(_impl=sys.opt._impl.replace(warn_overflow=quiet)))
+
+
 class MjxPhysics:
     """One world of MJX physics (vmap it). `impl` is 'warp' or 'jax'."""
 
@@ -65,6 +74,7 @@ class MjxPhysics:
         self.contact_adr = jnp.asarray(scene.contact_adr)
         self.sys = mjx.put_model(scene.model, impl=impl)
         if impl == "warp":
+            self.sys = _quiet_solver_limits(self.sys)
             self._data0 = mjx.make_data(scene.model, impl="warp", naconmax=max_worlds * contacts_per_world,
                                         njmax=constraints_per_world)
         else:
