@@ -40,7 +40,11 @@ class StandInEnv:
     def backend(self) -> str:
         return "standin"
 
-    def eval_horizon(self, t):
+    @property
+    def clip_durations(self):
+        return jnp.asarray([self.clip_duration])
+
+    def eval_horizon(self, t, clip=0):
         if self.looping:
             return 600 if isinstance(t, (int, float)) else jnp.full(jnp.shape(t), 600, jnp.int32)
         if isinstance(t, (int, float)):
@@ -59,11 +63,12 @@ class StandInEnv:
         return {"reward": reward, "reward/track": reward, "error/pose": err,
                 "error/end_effector": ee, "fell": fell}
 
-    def reset_at(self, rng, t) -> State:
+    def reset_at(self, rng, t, clip=0) -> State:
         t = jnp.asarray(t, jnp.float32)
         x = self._ref(t)
         zero = jnp.zeros(())
-        info = {"t": t, "steps": jnp.zeros((), jnp.int32), "rng": rng, "truncation": zero}
+        info = {"t": t, "steps": jnp.zeros((), jnp.int32), "rng": rng, "truncation": zero, "failed": zero,
+                "clip_end": zero}
         return State(pipeline_state=None, obs=self._obs(x, t), reward=zero, done=zero,
                      metrics=self._metrics(zero, zero, zero, zero), info=info | {"x": x})
 
@@ -72,7 +77,7 @@ class StandInEnv:
         t = jax.random.uniform(key, (), maxval=self.clip_duration)
         return self.reset_at(rng, t)
 
-    def transition(self, state: State, action, pose_termination: bool = True) -> State:  # no poses here
+    def transition(self, state: State, action, evaluation: bool = False) -> State:
         x, t = state.info["x"], state.info["t"]
         action = jnp.clip(action, -1.0, 1.0)
         x = x + 0.5 * (action - x)
@@ -88,10 +93,17 @@ class StandInEnv:
             clip_end = (t >= self.clip_duration - 1e-6).astype(jnp.float32)
         done = jnp.maximum(jnp.maximum(fell, limit), clip_end)
         truncation = limit * (1.0 - fell) * (1.0 - clip_end)
-        info = {**state.info, "x": x, "t": t, "steps": steps, "truncation": truncation}
+        info = {**state.info, "x": x, "t": t, "steps": steps, "truncation": truncation, "failed": fell,
+                "clip_end": clip_end}
         del zero
-        return state.replace(obs=self._obs(x, t), reward=reward, done=done,
-                             metrics=self._metrics(reward, err, 2 * err, fell), info=info)
+        metrics = self._metrics(reward, err, 2 * err, fell)
+        if evaluation:
+            metrics["reward_paper"] = reward
+        return state.replace(obs=self._obs(x, t), reward=reward, done=done, metrics=metrics, info=info)
+
+    def select(self, pick, a: State, b: State) -> State:
+        info = jax.tree_util.tree_map(lambda x, y: jnp.where(pick, x, y), a.info, b.info)
+        return b.replace(obs=jnp.where(pick, a.obs, b.obs), info=info)
 
     def step(self, state: State, action) -> State:
         nxt = self.transition(state, action)

@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjxmimic.motion.library import clip as clip_mod
+from mjxmimic.motion import clip as clip_mod
 from mjxmimic.motion.clip import (
     PROJECT_CLIPS,
     Clip,

@@ -26,7 +26,8 @@ from mjxmimic.core import quat
 from mjxmimic.core import config as config_lib
 from mjxmimic.cli import main as cli_main
 from mjxmimic.envs.mjx_env import make_env
-from mjxmimic.portable.playback import CpuEpisode, evaluate
+from mjxmimic.envs.cpu_env import CpuEnv
+from mjxmimic.portable.playback import evaluate
 from mjxmimic.portable.policy_numpy import NumpyPolicy
 from mjxmimic.learn.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
 
@@ -50,7 +51,7 @@ def env(config):
 
 @pytest.fixture(scope="module")
 def cpu_env(env, config):
-    return CpuEpisode(config, env.character, env.clips[0])
+    return CpuEnv(config, env.character, env.clips[0])
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +66,7 @@ def reset_at(env):
 
 @pytest.fixture(scope="module")
 def kinematics(env):
-    return jax.jit(env._kinematics)
+    return jax.jit(env.physics.init)
 
 
 @pytest.fixture(scope="module")
@@ -143,9 +144,9 @@ def policy_file(run):
 
 def _random_pose(env, rng, t, sigma):
     """The reference at t with every joint turned by ~sigma rad, random velocities."""
-    qpos, qvel = motion.sample(env.motion, 0, t)
+    qpos, qvel = motion.sample(env.spec.lib, 0, t)
     qpos, qvel = np.array(qpos, np.float64), np.array(qvel, np.float64)
-    lay = env.layout
+    lay = env.spec.layout
     turn = quat.from_rotvec(rng.normal(scale=sigma, size=(len(lay.q_quat) - 1, 3)))
     qpos[lay.q_quat[1:]] = quat.mul(qpos[lay.q_quat[1:]], turn)
     qpos[lay.q_scalar[3:]] += rng.normal(scale=sigma, size=len(lay.q_scalar) - 3)
@@ -157,7 +158,7 @@ def _random_pose(env, rng, t, sigma):
 def _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, action):
     reset_at, kinematics, transition = mjx_fns
     state = reset_at(jax.random.PRNGKey(0), jnp.float32(t))
-    data = kinematics(state.pipeline_state.replace(qpos=jnp.asarray(qpos), qvel=jnp.asarray(qvel)))
+    data = kinematics(jnp.asarray(qpos), jnp.asarray(qvel))
     nxt = transition(state.replace(pipeline_state=data), jnp.asarray(action, jnp.float32))
     cpu_env.set_state(qpos, qvel, t)
     step = cpu_env.step(action)
@@ -189,7 +190,7 @@ def test_observation_parity_from_reference_states_on_the_ground(env, cpu_env, mj
     rng = np.random.default_rng(2)
     for _ in range(10):
         t = float(rng.uniform(0, env.clip_duration))
-        qpos, qvel = (np.asarray(x, np.float32) for x in motion.sample(env.motion, 0, t))
+        qpos, qvel = (np.asarray(x, np.float32) for x in motion.sample(env.spec.lib, 0, t))
         action = rng.uniform(-0.1, 0.1, env.action_size)
         obs0 = cpu_env.reset_at(t)
         np.testing.assert_allclose(obs0, np.asarray(mjx_fns[0](jax.random.PRNGKey(0), jnp.float32(t)).obs), atol=1e-5)
@@ -203,17 +204,17 @@ def test_root_sync_at_a_new_cycle_matches(env, cpu_env, mjx_fns):
     """A character beside its reference crosses into a new cycle: both sides move the reference
     root under it alike (the root offset and the reward agree)."""
     t = env.clip_duration - 0.5 * env.control_dt
-    qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.motion, 0, t))
+    qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.spec.lib, 0, t))
     qpos[0:2] += np.array([0.3, -0.4], np.float32)
     nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, np.zeros(env.action_size))
-    np.testing.assert_allclose(cpu_env.root_offset, np.asarray(nxt.info["root_offset"]), atol=1e-4)
-    assert np.abs(cpu_env.root_offset).max() > 0.25
+    np.testing.assert_allclose(cpu_env.motion.root_offset, np.asarray(nxt.info["root_offset"]), atol=1e-4)
+    assert np.abs(cpu_env.motion.root_offset).max() > 0.25
     assert step.reward == pytest.approx(float(nxt.reward), abs=1e-4)
 
 
 def test_fall_detection_matches(env, cpu_env, mjx_fns):
     t = 0.2
-    qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.motion, 0, t))
+    qpos, qvel = (np.asarray(x, np.float32).copy() for x in motion.sample(env.spec.lib, 0, t))
     qpos[2] = 0.08  # lying face down: chest on the floor
     qpos[3:7] = quat.from_rotvec(np.array([0.0, np.pi / 2, 0.0]))
     nxt, step = _one_step_both(mjx_fns, cpu_env, qpos, qvel, t, np.zeros(env.action_size))
@@ -388,7 +389,7 @@ def test_sim_to_sim_nr_on_the_same_starts(run, policy_file):
     ~0.6 s, and MJX's plane-box contacts (see the ground parity test) shift fall times by a few
     steps; exactness is what the parity tests above prove."""
     pf = policy_format.read(policy_file)
-    cpu = CpuEpisode(pf.config(), pf.character(), pf.clip())
+    cpu = CpuEnv(pf.config(), pf.character(), pf.clip())
     result = evaluate(cpu, pf.policy(), pf.manifest["training"]["eval"]["start_times"])
     np.testing.assert_allclose(result["start_times"], run["starts"])
     per_mjx = run["mjx_per_episode"]
