@@ -1,6 +1,10 @@
 """Plot samples/s against env count from `mjxmimic bench --out` JSON files (one line per kind).
 
-    python benchmarks/plot_throughput.py benchmarks/results/bench_gpu_h200_preset.json --out benchmarks/throughput.png
+    python benchmarks/plot_throughput.py benchmarks/results/bench_gpu_h200_warp.json \
+        benchmarks/results/bench_gpu_h200_preset.json --out benchmarks/throughput.png
+
+Rows without a "backend" field come from files written before the env core v2 (issue 12), when
+MJX's impl='jax' was the only GPU backend; they are labelled jax.
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ def main() -> None:
             if rows:
                 ax.plot([r["num_envs"] for r in rows], [r["samples_per_s"] for r in rows], marker="o",
                         color=color, linestyle=style,
-                        label=f"{kind} ({device}, {rows[0]['physics_hz']} Hz, {solver_label(rows[0])} it)")
+                        label=f"{kind} ({device}, {rows[0].get('backend', 'jax')}, {rows[0]['physics_hz']} Hz, "
+                              f"{solver_label(rows[0])} it)")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xlabel("parallel environments")
