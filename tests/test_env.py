@@ -281,3 +281,35 @@ def test_two_clip_library_draws_both_and_grades_each_env_against_its_own_clip(en
         # the same body state graded against the other clip
         other = own.replace(info=dict(own.info, clip=jnp.asarray(1 - clip, jnp.int32)))
         assert float(trans(other, zero).reward) < float(after.reward) - 0.1
+
+
+def test_push_event_moves_the_root_the_same_way_on_mjx_and_mujoco_c(env):
+    """env.events=push: at the start of the second interval a 0.2 s horizontal push of 400 N on
+    the root; the root speeds up along the push direction, by the same amount on both backends."""
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.task.events import GOLDEN
+
+    cfg = apply_overrides(env.config, {"env.events": "push", "env.push_force_n": 400.0,
+                                       "env.push_interval_s": 0.5, "env.solver_iterations": 30,
+                                       "env.ls_iterations": 30})
+    pushed, plain = ImitationEnv(cfg, env.character, env.clips), ImitationEnv(
+        apply_overrides(cfg, {"env.events": ""}), env.character, env.clips)
+    state = pushed.reset_at(jax.random.PRNGKey(0), 0.3)
+    state = state.replace(info=dict(state.info, steps=jnp.asarray(15, jnp.int32)))  # 0.5 s in
+    zero = jnp.zeros(env.action_size)
+    gain = np.asarray(jax.jit(pushed.transition)(state, zero).pipeline_state.qvel[0:2]
+                      - jax.jit(plain.transition)(state, zero).pipeline_state.qvel[0:2])
+    turn = 2 * np.pi * ((float(state.info["event_seed"]) + GOLDEN) % 1.0)
+    along = gain @ np.array([np.cos(turn), np.sin(turn)])
+    assert 0.15 < along < 0.5 and np.linalg.norm(gain) < 1.2 * along  # ~ 400 N x 0.033 s / 45 kg = 0.3
+    early = state.replace(info=dict(state.info, steps=jnp.asarray(3, jnp.int32)))  # first interval: no push
+    np.testing.assert_allclose(jax.jit(pushed.transition)(early, zero).pipeline_state.qvel,
+                               jax.jit(plain.transition)(early, zero).pipeline_state.qvel, atol=1e-5)
+
+    cpu = CpuEnv(cfg, env.character, env.clips[0])
+    q, v = (np.asarray(x) for x in (state.pipeline_state.qpos, state.pipeline_state.qvel))
+    cpu.set_state(q, v, 0.3, steps=15, event_seed=float(state.info["event_seed"]))
+    cpu.step(np.zeros(env.action_size))
+    cpu_pushed = cpu.data.qvel[0:2].copy()
+    mjx_pushed = np.asarray(jax.jit(pushed.transition)(state, zero).pipeline_state.qvel[0:2])
+    np.testing.assert_allclose(cpu_pushed, mjx_pushed, atol=0.02)

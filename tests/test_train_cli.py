@@ -180,8 +180,8 @@ def test_max_seconds_stops_with_a_checkpoint_then_resume_finishes(tmp_path):
 
     run_dir = tmp_path / "run"
     config = _standin_config(max_seconds=1000.0)
-    # pretend the command started 995 s ago: the run must stop at the next check
-    first = train(config, run_dir, env=StandInEnv(), progress=False, start_time=time.time() - 995)
+    # pretend the command started just under 1000 s ago: the run must stop at its first check
+    first = train(config, run_dir, env=StandInEnv(), progress=False, start_time=time.time() - 999.99)
     assert first.reason == "max_seconds" and first.exit_code == 0
     assert checkpoint.latest_checkpoint(run_dir) == first.env_steps < 5120
     assert not (run_dir / "eval.json").exists()

@@ -46,6 +46,10 @@ class EnvConfig:
     action_mode: str = "residual"
     action_scale: float = 1.0  # absolute: 1 spans +-pi (ball) and the range (hinge); residual: rad
     observations: str = "phase,root_height,bodies"  # observation terms, in order (mjxmimic.task.observation)
+    events: str = ""  # episode events, e.g. "push" (mjxmimic.task.events); none by default
+    push_force_n: float = 0.0  # horizontal force on the root (N)
+    push_duration_s: float = 0.2
+    push_interval_s: float = 2.0  # one push every interval, from the second on
 
 
 @dataclasses.dataclass(frozen=True)
@@ -243,6 +247,9 @@ def validate(config: Config) -> None:
         (env.action_mode in ("absolute", "residual"), "env.action_mode", "must be 'absolute' or 'residual'"),
         (env.torque_limit in ("total", "proportional"), "env.torque_limit", "must be 'total' or 'proportional'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),
+        (env.push_force_n >= 0, "env.push_force_n", "must be >= 0"),
+        (env.push_duration_s > 0, "env.push_duration_s", "must be positive"),
+        (env.push_interval_s > env.push_duration_s, "env.push_interval_s", "must be longer than env.push_duration_s"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
         (config.physics.backend in ("auto", "warp", "jax"), "physics.backend", "must be 'auto', 'warp' or 'jax'"),
         (config.physics.contacts_per_world >= 1, "physics.contacts_per_world", "must be at least 1"),

@@ -22,6 +22,7 @@ from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
 from mjxmimic.task import nr as nr_rule
+from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import termination
 
 
@@ -53,11 +54,20 @@ class CpuEnv:
         self.control_dt = self.spec.control_dt
         self.max_steps = self.spec.max_steps
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
+        self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
         self.loop = bool(self.spec.lib.loop[0])
         self.fall_contact = step_lib.fall_contact_spec(config, clip.name)
         self.terminations = termination.evaluation_list(env.early_termination)
-        self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2))
+        self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0)
+
+    @property
+    def observation_size(self) -> int:
+        return obs_terms.observation_size(self.model.nbody, self.config.env.observations)
+
+    @property
+    def action_size(self) -> int:
+        return self.character.action_size
 
     @property
     def time(self) -> float:
@@ -68,11 +78,13 @@ class CpuEnv:
         qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
         return motion_lib.shift_root(qpos, self.motion.root_offset, np), qvel
 
-    def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0)) -> np.ndarray:
+    def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0),
+                  event_seed: float = 0.0) -> np.ndarray:
         """Put the character in (qpos, qvel) at clip time t; returns the observation."""
         self.physics.init(qpos, qvel)
         self.motion = step_lib.Motion(clip=0, time=np.float32(t), steps=int(steps),
-                                      root_offset=np.array(root_offset, dtype=np.float64))
+                                      root_offset=np.array(root_offset, dtype=np.float64),
+                                      event_seed=float(event_seed))
         kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
         return step_lib.observe(self.spec, self.physics, kin, self.motion)
 

@@ -26,7 +26,7 @@ from mjxmimic.task import termination
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
-_MOTION_KEYS = ("clip", "time", "steps", "root_offset")
+_MOTION_KEYS = step_lib.Motion._fields
 
 
 class ImitationEnv(Env):
@@ -87,8 +87,10 @@ class ImitationEnv(Env):
         return self.reset_at(rng, t, clip)
 
     def reset_at(self, rng: jax.Array, t: jax.Array, clip: jax.Array | int = 0) -> State:
-        """The reference state of `clip` at clip time t."""
-        data, motion, obs = step_lib.reset(self.spec, self.physics, jnp.asarray(clip, jnp.int32), t)
+        """The reference state of `clip` at clip time t; the episode's event seed from `rng`."""
+        rng, key = jax.random.split(rng)
+        data, motion, obs = step_lib.reset(self.spec, self.physics, jnp.asarray(clip, jnp.int32), t,
+                                           jax.random.uniform(key))
         zero = jnp.zeros(())
         info = {"rng": rng, "truncation": zero, "failed": zero, "clip_end": zero, **motion._asdict()}
         metrics = {k: zero for k in self.metric_keys}

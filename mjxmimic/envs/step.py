@@ -23,6 +23,7 @@ from mjxmimic.core.scene import Scene, fall_mask
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
+from mjxmimic.task import events as event_terms
 from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import reward as reward_terms
 from mjxmimic.task import termination
@@ -35,6 +36,7 @@ class Motion(NamedTuple):
     time: Any  # clip time (s), float32
     steps: Any  # control steps since the reset
     root_offset: Any  # (2,) horizontal shift of the reference root (reward.sync_root_position)
+    event_seed: Any  # in [0, 1), drawn at reset: what varies events (push directions) between episodes
 
 
 class Spec(NamedTuple):
@@ -44,6 +46,7 @@ class Spec(NamedTuple):
     lib: motion_lib.MotionLib
     fall_masks: Any  # (C, S) bool: per clip, the contact sensors that count as a fall
     observations: tuple[str, ...]
+    events: tuple[str, ...]
     rewards: tuple[reward_terms.Term, ...]
     paper_rewards: tuple[reward_terms.Term, ...]
     control_dt: float
@@ -86,6 +89,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         lib=lib,
         fall_masks=xp.asarray(np.stack(masks)),
         observations=obs_terms.parse(env.observations),
+        events=event_terms.parse(env.events),
         rewards=reward_terms.terms(config.reward.kind, config.reward.weights),
         paper_rewards=reward_terms.terms("paper"),
         control_dt=1.0 / env.control_hz,
@@ -99,13 +103,14 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
     return obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp)
 
 
-def reset(spec: Spec, physics: Physics, clip: Any, t: Any) -> tuple[Any, Motion, Any]:
+def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0) -> tuple[Any, Motion, Any]:
     """(state, motion, obs): the reference state of `clip` at time t (RSI)."""
     xp = physics.xp
     t = xp.asarray(t, dtype=xp.float32)
     qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
     state = physics.init(qpos, qvel)
-    motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32))
+    motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
+                    event_seed=xp.asarray(event_seed, xp.float32))
     return state, motion, observe(spec, physics, physics.kinematics(qpos, qvel), motion)
 
 
@@ -133,12 +138,17 @@ def max_eval_horizon(spec: Spec) -> int:
 
 def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, action: Any,
                  terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False) -> Result:
-    """One control step (the module docstring); no reset."""
+    """One control step (the module docstring); no reset. `external_force` (nbody, 6) is added to
+    the events' own."""
     xp, env, lib = physics.xp, spec.config.env, spec.lib
     clip = motion.clip
     t = motion.time + xp.asarray(spec.control_dt, xp.float32)
     ref_qpos, ref_qvel = motion_lib.sample(lib, clip, t, xp)  # the unshifted root
     targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
+    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed,
+                                        spec.layout.body_mass.shape[0], xp)
+    if events is not None or external_force is not None:
+        external_force = (0.0 if events is None else events) + (0.0 if external_force is None else external_force)
     sub = physics.step(state, targets, external_force)
     qpos, qvel = physics.qpos_qvel(sub.state)
     sim = physics.kinematics(qpos, qvel)
@@ -162,7 +172,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     done = failed | timeout | clip_end
     r = xp.where(failed, 0.0, r)
 
-    motion = Motion(clip=clip, time=t, steps=steps, root_offset=offset)
+    motion = motion._replace(time=t, steps=steps, root_offset=offset)
     obs = observe(spec, physics, sim, motion)
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}
