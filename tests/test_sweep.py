@@ -354,6 +354,7 @@ TINY = {"run.total_samples": 1024, "ppo.num_envs": 8, "ppo.unroll_length": 4, "p
         "run.eval_episodes": 2, "env.episode_seconds": 1, "env.physics_hz": 30}
 
 
+@pytest.mark.slow
 def test_cpu_sweep_failure_report_and_rerun(tmp_path, capsys):
     """Two runs: slow_walk trains to its (tiny) budget; a malformed clip file passes the spec check
     (it exists) and fails its run only. Re-running skips the finished run."""

@@ -71,6 +71,7 @@ def real_run(tmp_path_factory, real_clip):
     return run_dir
 
 
+@pytest.mark.slow
 def test_run_folder_and_resolved_config(real_run, real_clip):
     assert (real_run / "config.json").is_file()
     assert (real_run / "metrics.jsonl").is_file()
@@ -80,6 +81,7 @@ def test_run_folder_and_resolved_config(real_run, real_clip):
     assert config_lib.load(real_run / "config.json") == expected
 
 
+@pytest.mark.slow
 def test_real_training_beats_the_untrained_policy(real_run):
     evals = [r for r in read(real_run) if "eval/nr" in r]
     assert evals[0]["step"] == 0  # run.eval_at_start: the untrained policy, same evaluator
@@ -93,6 +95,7 @@ def test_real_training_beats_the_untrained_policy(real_run):
         assert key in final
 
 
+@pytest.mark.slow
 def test_checkpoints_of_the_real_run(real_run):
     assert checkpoint.latest_checkpoint(real_run) == 153600
     steps = sorted(int(p.name) for p in (real_run / "checkpoints").iterdir() if p.name.isdigit())
@@ -101,6 +104,7 @@ def test_checkpoints_of_the_real_run(real_run):
     assert max(sizes.values()) <= 16 * 1024 * 1024
 
 
+@pytest.mark.slow
 def test_iteration_metrics_lines(real_run):
     lines = [r for r in read(real_run) if "reward" in r and "eval/nr" not in r]
     assert [r["step"] for r in lines] == [512 * (i + 1) for i in range(len(lines))]
