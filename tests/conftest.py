@@ -37,3 +37,17 @@ def residual_env(character):
 
     config = make_config("cpu", {"env.action_mode": "residual", "physics.backend": "jax"})
     return ImitationEnv(config, character, [load_clip_source("slow_walk", character)])
+
+
+@pytest.fixture(scope="session")
+def env_fns(residual_env):
+    """residual_env's functions, each compiled once per session and shared by every test."""
+    from types import SimpleNamespace
+
+    env = residual_env
+    return SimpleNamespace(
+        reset_at=jax.jit(env.reset_at),
+        transition=jax.jit(env.transition),
+        evaluate=jax.jit(lambda s, a: env.transition(s, a, evaluation=True)),
+        step=jax.jit(env.step),
+    )

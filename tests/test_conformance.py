@@ -14,10 +14,10 @@ from standin_env import StandInEnv
 class Jitted:
     """An env with the Brax-style API (reset_at/transition), jitted, one episode."""
 
-    def __init__(self, env):
+    def __init__(self, env, reset_at=None, evaluate=None):
         self.env = env
-        self._reset = jax.jit(env.reset_at)
-        self._step = jax.jit(lambda s, a: env.transition(s, a, evaluation=True))
+        self._reset = reset_at or jax.jit(env.reset_at)
+        self._step = evaluate or jax.jit(lambda s, a: env.transition(s, a, evaluation=True))
         self.state = None
 
     def reset_at(self, t):
@@ -44,9 +44,9 @@ class Cpu:
 
 
 @pytest.fixture(scope="module", params=["mjx", "cpu", "standin"])
-def adapter(request, residual_env):
+def adapter(request, residual_env, env_fns):
     if request.param == "mjx":
-        return Jitted(residual_env)
+        return Jitted(residual_env, env_fns.reset_at, env_fns.evaluate)
     if request.param == "cpu":
         return Cpu(CpuEnv(residual_env.config, residual_env.character, residual_env.clips[0]))
     return Jitted(StandInEnv())
