@@ -222,9 +222,12 @@ class Trainer:
         return jax.device_put(_strip_weak_type(ts), self.state_sharding(ts))
 
     def state_sharding(self, ts: TrainState) -> TrainState:
-        rep, bat = self.replicated, self.batch_sharded
+        """Env leaves with a leading env axis are sharded; the rest (such as warp's counters
+        shared by all worlds) and the learner are replicated."""
+        rep, bat, n = self.replicated, self.batch_sharded, self.config.ppo.num_envs
         tree = jax.tree_util.tree_map(lambda _: rep, ts)
-        return tree.replace(env_state=jax.tree_util.tree_map(lambda _: bat, ts.env_state))
+        per_env = lambda x: bat if getattr(x, "ndim", 0) >= 1 and x.shape[0] == n else rep
+        return tree.replace(env_state=jax.tree_util.tree_map(per_env, ts.env_state))
 
     # ---- policy ----------------------------------------------------------------------------
     def make_policy(self, params: dict, deterministic: bool = True) -> Callable:
@@ -361,7 +364,6 @@ def make_trainer(env, config: Config) -> Trainer:
     trainer = Trainer(env=env, config=config, networks=networks, mesh=mesh,
                       num_devices=d, samples_per_iteration=cfg.num_envs * cfg.unroll_length)
     trainer._batched_env = _BatchedEnv(env)
-    trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer.batch_sharded)
 
     # Shardings of a TrainState, from shapes only (nothing runs).
     def abstract_init(key):
@@ -373,6 +375,7 @@ def make_trainer(env, config: Config) -> Trainer:
 
     abstract = jax.eval_shape(abstract_init, jax.random.PRNGKey(0))
     trainer._state_sharding = trainer.state_sharding(abstract)
+    trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)
     trainer.train_step = jax.jit(trainer._train_step, donate_argnums=0,
                                  out_shardings=(trainer._state_sharding, trainer.replicated))
     return trainer
