@@ -56,8 +56,6 @@ class CpuEnv:
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
         self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
-        self.loop = bool(self.spec.lib.loop[0])
-        self.fall_contact = step_lib.fall_contact_spec(config, clip.name)
         self.terminations = termination.evaluation_list(env.early_termination)
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0)
 

@@ -53,11 +53,8 @@ class ImitationEnv(Env):
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
         self.train_terminations = termination.training_list(env.pose_termination_m, env.early_termination)
         self.eval_terminations = termination.evaluation_list(env.early_termination)
-        self.fall_contacts = [step_lib.fall_contact_spec(config, c.name) for c in clips]
-        self.fall_contact = self.fall_contacts[0]
         self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
-        self.loop = bool(self.spec.lib.loop[0])
 
     # Brax Env interface -------------------------------------------------------------------
     @property
