@@ -82,7 +82,8 @@ def _measurement(kind: str, env: ImitationEnv, num_envs: int, steps: int, compil
     sps = num_envs * steps / med
     cfg = env.config.env
     return Measurement(kind, env.backend_name, num_envs, cfg.physics_hz, env.physics.substeps,
-                       cfg.solver_iterations, cfg.ls_iterations, steps, compile_s, med, sps, sps * env.physics.substeps, peak_memory_bytes())
+                       cfg.solver_iterations, cfg.ls_iterations, steps, compile_s, med, sps,
+                       sps * env.physics.substeps, peak_memory_bytes())
 
 
 def steps_for(num_envs: int) -> int:
