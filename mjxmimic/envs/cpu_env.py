@@ -17,12 +17,10 @@ import numpy as np
 
 from mjxmimic.core.character import Character
 from mjxmimic.core.config import Config
-from mjxmimic.core.scene import build_scene
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
 from mjxmimic.task import nr as nr_rule
-from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import termination
 
 
@@ -45,9 +43,9 @@ class CpuEnv:
         self.config = config
         self.character = character
         self.clip = clip
-        self.scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations)
+        self.scene, self.spec = step_lib.build(config, character, [clip], np)
         self.model = self.scene.model
-        self.spec = step_lib.make_spec(config, character, self.scene, [clip], np)
+        self.observation_size, self.action_size = self.spec.observation_size, self.spec.action_size
         self.substeps = env.physics_hz // env.control_hz
         self.physics = CpuPhysics(self.scene, self.spec.layout, self.substeps, env.torque_limit)
         self.data = self.physics.data
@@ -58,14 +56,6 @@ class CpuEnv:
         self.clip_duration = float(self.spec.lib.duration[0])
         self.terminations = termination.evaluation_list(env.early_termination)
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0)
-
-    @property
-    def observation_size(self) -> int:
-        return obs_terms.observation_size(self.model.nbody, self.config.env.observations)
-
-    @property
-    def action_size(self) -> int:
-        return self.character.action_size
 
     @property
     def time(self) -> float:

@@ -17,11 +17,9 @@ from brax.envs.base import Env, State
 from mjxmimic.core.character import Character, load_character, resolve_xml
 from mjxmimic.core.compat import patch_all
 from mjxmimic.core.config import Config
-from mjxmimic.core.scene import build_scene
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.mjx import MjxPhysics, resolve_backend
-from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import termination
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
@@ -39,11 +37,10 @@ class ImitationEnv(Env):
         self.config = config
         self.character = character
         self.clips = clips
-        self.scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations)
+        self.scene, self.spec = step_lib.build(config, character, clips, jnp, weights)
         self.model = self.scene.model
         self.backend_name = resolve_backend(config.physics.backend)
         worlds = max_worlds or max(config.ppo.num_envs, config.run.eval_episodes)
-        self.spec = step_lib.make_spec(config, character, self.scene, clips, jnp, weights)
         self.physics = MjxPhysics(self.scene, self.spec.layout, env.physics_hz // env.control_hz, env.torque_limit,
                                   self.backend_name, max_worlds=worlds,
                                   contacts_per_world=config.physics.contacts_per_world,
@@ -59,11 +56,11 @@ class ImitationEnv(Env):
     # Brax Env interface -------------------------------------------------------------------
     @property
     def observation_size(self) -> int:
-        return obs_terms.observation_size(self.model.nbody, self.config.env.observations)
+        return self.spec.observation_size
 
     @property
     def action_size(self) -> int:
-        return self.character.action_size
+        return self.spec.action_size
 
     @property
     def backend(self) -> str:

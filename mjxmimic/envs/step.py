@@ -19,7 +19,7 @@ from mjxmimic.core.character import Character, default_fall_contact
 from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.layout import Layout, make_layout
-from mjxmimic.core.scene import Scene, fall_mask
+from mjxmimic.core.scene import Scene, build_scene, fall_mask
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
@@ -51,6 +51,8 @@ class Spec(NamedTuple):
     paper_rewards: tuple[reward_terms.Term, ...]
     control_dt: float
     max_steps: int
+    observation_size: int
+    action_size: int
     config: Config
 
 
@@ -69,6 +71,13 @@ class Result(NamedTuple):
 def fall_contact_spec(config: Config, clip_name: str) -> str:
     spec = config.clip.fall_contact
     return default_fall_contact(clip_name) if spec == "auto" else spec
+
+
+def build(config: Config, character: Character, clips: list[Any], xp: Any, weights: Any = None) -> tuple[Scene, Spec]:
+    """The physics scene and the step's static data for `clips`, arrays converted with `xp.asarray`."""
+    env = config.env
+    scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations)
+    return scene, make_spec(config, character, scene, clips, xp, weights)
 
 
 def make_spec(config: Config, character: Character, scene: Scene, clips: list[Any], xp: Any,
@@ -94,6 +103,8 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         paper_rewards=reward_terms.terms("paper"),
         control_dt=1.0 / env.control_hz,
         max_steps=int(round(env.episode_seconds * env.control_hz)),
+        observation_size=obs_terms.observation_size(scene.model.nbody, env.observations),
+        action_size=character.action_size,
         config=config,
     )
 

@@ -9,6 +9,7 @@ warp has no `com_vel`.
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 import jax
@@ -49,13 +50,27 @@ def resolve_backend(name: str) -> str:
     return name
 
 
-def _quiet_solver_limits(sys: mjx.Model) -> mjx.Model:
+@contextlib.contextmanager
+def _quiet_solver_limits():
     """Warp prints a line per world and step when the solver or line search stops at its
-    iteration limit, which a few iterations (the presets' 4) do by design; pool overflows stay loud."""
-    from mujoco.mjx.third_party.mujoco_warp._src.types import OverflowType
+    iteration limit, which a few iterations (the presets' 4) do by design; pool overflows stay
+    loud. MJX copies MuJoCo Warp's options from the model that `mujoco_warp.put_model` builds, so
+    this sets that model's documented `opt.warn_overflow` while MJX builds its own."""
+    from mujoco.mjx.warp import mujoco_warp as mjw
 
-    quiet = int(OverflowType.ALL) & ~int(OverflowType.ITERATIONS) & ~int(OverflowType.LS_ITERATIONS)
-    return sys.replace(opt=sys.opt.replace(_impl=sys.opt._impl.replace(warn_overflow=quiet)))
+    build = mjw.put_model
+    quiet = int(mjw.OverflowType.ALL) & ~int(mjw.OverflowType.ITERATIONS) & ~int(mjw.OverflowType.LS_ITERATIONS)
+
+    def put_model(*args: Any, **kwargs: Any) -> Any:
+        model = build(*args, **kwargs)
+        model.opt.warn_overflow = quiet
+        return model
+
+    mjw.put_model = put_model
+    try:
+        yield
+    finally:
+        mjw.put_model = build
 
 
 class MjxPhysics:
@@ -72,12 +87,13 @@ class MjxPhysics:
         self.torque_limit = torque_limit
         self.dt = float(scene.model.opt.timestep)
         self.contact_adr = jnp.asarray(scene.contact_adr)
-        self.sys = mjx.put_model(scene.model, impl=impl)
         if impl == "warp":
-            self.sys = _quiet_solver_limits(self.sys)
+            with _quiet_solver_limits():
+                self.sys = mjx.put_model(scene.model, impl="warp")
             self._data0 = mjx.make_data(scene.model, impl="warp", naconmax=max_worlds * contacts_per_world,
                                         njmax=constraints_per_world)
         else:
+            self.sys = mjx.put_model(scene.model, impl="jax")
             self._data0 = mjx.make_data(self.sys)
         # Kinematics of any pose on the pure-JAX model (see the module docstring).
         self._kin_sys = self.sys if impl == "jax" else mjx.put_model(scene.model, impl="jax")

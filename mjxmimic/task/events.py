@@ -25,12 +25,10 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     since = episode_time - k * env.push_interval_s
     active = (k >= 1) & (since < env.push_duration_s - 1e-6)  # no push in the first interval
     turn = 2.0 * xp.pi * ((event_seed + GOLDEN * k) % 1.0)
-    force = env.push_force_n * xp.stack([xp.cos(turn), xp.sin(turn)]) * active
-    out = xp.zeros((nbody, 6), dtype=xp.float32)
-    if xp.__name__.startswith("jax"):
-        return out.at[ROOT_BODY, 0:2].set(force)
-    out[ROOT_BODY, 0:2] = force
-    return out
+    zero = xp.zeros_like(turn)
+    wrench = env.push_force_n * active * xp.stack([xp.cos(turn), xp.sin(turn), zero, zero, zero, zero])
+    on_root = xp.arange(nbody) == ROOT_BODY
+    return xp.where(on_root[:, None], wrench[None, :], 0.0).astype(xp.float32)
 
 
 TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any], Any]] = {"push": push}
