@@ -101,6 +101,24 @@ def test_evaluator_matches_evaluate_and_compiles_once():
     assert evaluator._run._cache_size() == 1
 
 
+def test_stochastic_evaluation_grades_the_training_policy_on_the_same_starts():
+    from mjxmimic.learn.ppo import export_params, make_trainer
+
+    env = StandInEnv()
+    config = make_config("cpu", {"run.eval_episodes": 8, "run.eval_stochastic": True,
+                                 "ppo.init_action_std": 1.0})
+    trainer = make_trainer(env, config)
+    params = export_params(trainer.init(0))
+    result = Evaluator(env, config, trainer.make_policy)(params, seed=5)
+    deterministic = evaluate(env, trainer.make_policy(params, True), config, seed=5)
+    stochastic = evaluate(env, trainer.make_policy(params, False), config, seed=5)
+    assert result["nr"] == pytest.approx(deterministic["nr"], rel=1e-5)
+    for key in Evaluator.STOCHASTIC_FIELDS:
+        assert result[f"stochastic_{key}"] == pytest.approx(stochastic[key], rel=1e-5, abs=1e-7)
+    # std 1 moves the stand-in visibly: the two policies are graded apart
+    assert result["stochastic_nr"] != pytest.approx(result["nr"], rel=0.05)
+
+
 def test_eval_cli_missing_run_folder(tmp_path, capsys):
     code = cli.main(["eval", str(tmp_path / "nope")])
     err = capsys.readouterr().err.strip()

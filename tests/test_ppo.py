@@ -104,6 +104,25 @@ def test_train_step_follows_the_schedule():
     assert trainer.train_step._cache_size() == 1
 
 
+@pytest.mark.parametrize("mode", ["learned", "fixed"])
+def test_std_mode(mode):
+    config = make_config("cpu", {"ppo.init_action_std": 0.3, "ppo.std_mode": mode})
+    trainer = make_trainer(StandInEnv(), config)
+    ts = trainer.init(0)
+    for _ in range(10):
+        ts, metrics = trainer.train_step(ts)
+    obs = jax.random.normal(jax.random.PRNGKey(1), (16, trainer.env.observation_size)) * 3
+    params = export_params(ts)
+    loc, s = _numpy_policy(params, obs, trainer.env.action_size)
+    std = np.log1p(np.exp(s)) + MIN_STD
+    if mode == "fixed":
+        np.testing.assert_allclose(std, 0.3, rtol=1e-5)
+        assert float(metrics["policy/std"]) == pytest.approx(0.3, rel=1e-4)
+    else:
+        assert np.abs(std - 0.3).max() > 1e-3
+    assert np.abs(loc).max() > 0.1  # the mean learned in both modes
+
+
 def test_donates_the_input_state(trainer):
     ts = trainer.init(1)
     leaf = ts.params.policy["params"]["hidden_0"]["kernel"]

@@ -1,7 +1,8 @@
 """`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint.
 
 Evaluates the run's latest checkpoint by the NR protocol (mjxmimic.runs.evaluate_run), which
-writes RUN/eval.json, and prints a short table (or the JSON with --json).
+writes RUN/eval.json, and prints a short table (or the JSON with --json). With --push it runs
+DeepMimic's Table 6 push test instead (mjxmimic.runs.push_eval) and writes RUN/push.json.
 """
 
 from __future__ import annotations
@@ -17,6 +18,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
+    parser.add_argument("--push", action="store_true",
+                        help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
+                             "sideways, that 90%% of the trials survive (EVALUATION.md)")
+    parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
+
+# DeepMimic's Table 6 (N, forward / sideways), policies trained without pushes.
+PAPER_PUSH_N = {"walk": (240, 300), "run": (720, 300), "backflip": (440, 100), "spinkick": (690, 600),
+                "cartwheel": (200, 470)}
 
 
 _ROWS = [
@@ -32,7 +41,31 @@ _ROWS = [
 ]
 
 
+def _run_push(args: argparse.Namespace) -> int:
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.runs import folder
+    from mjxmimic.runs.push_eval import push_test_run
+
+    if args.trials < 1:
+        raise UserError(f"--trials {args.trials}: must be at least 1")
+    say = None if args.json else (lambda line: print(f"  {line}", flush=True))
+    result = push_test_run(args.run_dir, args.seed, args.trials, progress=say)
+    folder.write_json_atomic(args.run_dir / "push.json", result)
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return 0
+    paper = next((v for k, v in PAPER_PUSH_N.items() if k in Path(result["clip"]).stem), None)
+    print(f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,}): largest push survived "
+          f"by {0.9:.0%} of {args.trials} trials, 0.2 s on the pelvis")
+    for i, name in enumerate(("forward", "sideways")):
+        beside = f"   (paper, Table 6: {paper[i]} N)" if paper else ""
+        print(f"  {name:<9} {result[f'push_{name}_n']:7.0f} N{beside}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.push:
+        return _run_push(args)
     from mjxmimic.runs.evaluate_run import evaluate_run
 
     result = evaluate_run(args.run_dir, args.episodes, args.seed)

@@ -92,6 +92,9 @@ class PPOConfig:
     policy_hidden: tuple[int, ...] = (1024, 512)
     value_hidden: tuple[int, ...] = (1024, 512)
     init_action_std: float = 0.2  # Gaussian std at the start (normalised action units)
+    # "learned": the std is an output of the policy, trained with it; "fixed": it stays
+    # init_action_std in every state (DeepMimic's fixed exploration noise)
+    std_mode: str = "learned"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,6 +107,9 @@ class RunConfig:
     target_nr: float = 0.0  # stop once an evaluation reaches this NR; 0 = never
     seed: int = 0  # PRNG seed of the run (network init, env resets, evaluation start times)
     eval_at_start: bool = False  # also evaluate the untrained policy (a baseline line in metrics.jsonl)
+    # also grade the stochastic (training) policy on the same starts: stochastic_* beside the NR of
+    # the deterministic one, which is what playback and export run
+    eval_stochastic: bool = False
 
 
 @dataclasses.dataclass(frozen=True)
@@ -118,6 +124,7 @@ class Config:
 
 
 LR_SCHEDULES = ("constant", "linear", "cosine")
+STD_MODES = ("learned", "fixed")
 
 PRESETS: dict[str, dict[str, Any]] = {
     # Small enough that 2 CPU cores show learning within three minutes (measured on the default
@@ -260,6 +267,7 @@ def validate(config: Config) -> None:
          f"must divide ppo.num_envs ({ppo.num_envs})"),
         (ppo.num_epochs >= 1, "ppo.num_epochs", "must be at least 1"),
         (ppo.learning_rate > 0, "ppo.learning_rate", "must be positive"),
+        (ppo.std_mode in STD_MODES, "ppo.std_mode", f"must be one of {', '.join(STD_MODES)}"),
         (ppo.learning_rate_schedule in LR_SCHEDULES, "ppo.learning_rate_schedule",
          f"must be one of {', '.join(LR_SCHEDULES)}"),
         (ppo.learning_rate_final > 0, "ppo.learning_rate_final", "must be positive"),

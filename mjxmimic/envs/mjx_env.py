@@ -111,13 +111,15 @@ class ImitationEnv(Env):
         return b.replace(pipeline_state=self.physics.where(pick, a.pipeline_state, b.pipeline_state),
                          obs=jnp.where(pick, a.obs, b.obs), info=info)
 
-    def transition(self, state: State, action: jax.Array, evaluation: bool = False) -> State:
+    def transition(self, state: State, action: jax.Array, evaluation: bool = False,
+                   external_force: jax.Array | None = None) -> State:
         """One control step without reset. Evaluation uses EVALUATION.md's terminations (none of
-        the training-only ones) and also grades with the paper's reward."""
+        the training-only ones) and also grades with the paper's reward. `external_force`
+        (nbody, 6) is added to the events' (a push test's push)."""
         motion = step_lib.Motion(**{k: state.info[k] for k in _MOTION_KEYS})
         terms = self.eval_terminations if evaluation else self.train_terminations
         out = step_lib.control_step(self.spec, self.physics, state.pipeline_state, motion, action, terms,
-                                    grade_paper=evaluation)
+                                    external_force, grade_paper=evaluation)
         f32 = jnp.float32
         info = dict(state.info, truncation=out.truncation.astype(f32), failed=out.failed.astype(f32),
                     clip_end=out.clip_end.astype(f32), **out.motion._asdict())

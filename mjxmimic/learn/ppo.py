@@ -30,7 +30,8 @@ uses std = softplus(s) + 0.001 (pre-tanh). After the usual init, the last policy
 changed: kernel columns of the std half are set to 0 and their bias to
 softplus^-1(ppo.init_action_std - 0.001), so every state starts with exactly that std; kernel
 columns of the mean half are scaled by 0.01 (initial actions near 0, as in DeepMimic's 0.01
-output init). Both halves remain trainable (the std can become state dependent).
+output init). With ppo.std_mode=learned both halves train (the std can become state
+dependent); with fixed the std half never changes.
 
 Exported parameters (`export_params(ts)`, a plain pytree of float32 arrays) and the action:
 
@@ -146,10 +147,29 @@ def learning_rate_at(config: Config, samples: jax.Array) -> jax.Array:
     return jnp.asarray(start, jnp.float32)
 
 
-def make_optimizer(config: Config, learning_rate: float | jax.Array) -> optax.GradientTransformation:
+def _std_half_frozen(action_size: int) -> optax.GradientTransformation:
+    """Zero the updates of the std half of the policy's output layer (its kernel columns are 0 and
+    its bias holds the initial std, so the std stays ppo.init_action_std in every state)."""
+
+    def freeze(updates, params=None):
+        layers = updates.policy["params"]
+        last = f"hidden_{len(layers) - 1}"
+        kernel, bias = layers[last]["kernel"], layers[last]["bias"]
+        frozen = {"kernel": kernel.at[:, action_size:].set(0.0), "bias": bias.at[action_size:].set(0.0)}
+        policy = {**updates.policy, "params": {**layers, last: frozen}}
+        return updates.replace(policy=policy)
+
+    return optax.stateless(freeze)
+
+
+def make_optimizer(config: Config, learning_rate: float | jax.Array,
+                   action_size: int = 0) -> optax.GradientTransformation:
     """Adam after global-norm clipping. The rate is a plain scale, so the optimiser state is the
     same for every schedule (and for checkpoints written before schedules existed)."""
-    return optax.chain(optax.clip_by_global_norm(config.ppo.max_grad_norm), optax.adam(learning_rate))
+    parts = [optax.clip_by_global_norm(config.ppo.max_grad_norm), optax.adam(learning_rate)]
+    if config.ppo.std_mode == "fixed":
+        parts.append(_std_half_frozen(action_size))
+    return optax.chain(*parts)
 
 
 def export_params(ts: TrainState) -> dict:
@@ -200,7 +220,8 @@ class Trainer:
         params = ppo_losses.PPONetworkParams(policy=policy, value=value)
         normalizer = running_statistics.init_state(
             jax.ShapeDtypeStruct((self.env.observation_size,), jnp.float32))
-        return params, make_optimizer(self.config, cfg.learning_rate).init(params), normalizer
+        optimizer = make_optimizer(self.config, cfg.learning_rate, self.env.action_size)
+        return params, optimizer.init(params), normalizer
 
     def init(self, seed: int) -> TrainState:
         """A fresh TrainState, placed on the mesh (env batch sharded, the rest replicated)."""
@@ -287,7 +308,8 @@ class Trainer:
         samples = ts.env_steps.hi.astype(jnp.float32) * 2.0**32 + ts.env_steps.lo.astype(jnp.float32)
         learning_rate = learning_rate_at(self.config, samples)
         metrics["ppo/learning_rate"] = learning_rate
-        update = gradients.gradient_update_fn(loss_fn, make_optimizer(self.config, learning_rate),
+        optimizer = make_optimizer(self.config, learning_rate, self.env.action_size)
+        update = gradients.gradient_update_fn(loss_fn, optimizer,
                                               pmap_axis_name=None, has_aux=True)
 
         def minibatch_step(carry, batch):

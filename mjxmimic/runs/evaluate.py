@@ -83,17 +83,28 @@ class Evaluator:
     """Compiled once; `evaluator(params, seed)` for any params of the same structure.
 
     make_policy(params, deterministic) -> fn(obs, key) -> action (e.g. Trainer.make_policy).
+    With run.eval_stochastic the training policy is graded too, on the same start times, as
+    `stochastic_*` fields: a deterministic NR far below it means the mean action has drifted from
+    what training optimises.
     """
+
+    STOCHASTIC_FIELDS = ("nr", "nr_paper", "fall_rate", "pose_error_rad")
 
     def __init__(self, env, config: Config, make_policy: Callable[[Any, bool], Callable],
                  episodes: int | None = None):
         self.env = env
         self.num_episodes = int(episodes or config.run.eval_episodes)
+        self.stochastic = config.run.eval_stochastic
         self._run = jax.jit(
-            lambda params, key: _rollout(env, make_policy(params, True), key, self.num_episodes))
+            lambda params, key, deterministic: _rollout(env, make_policy(params, deterministic), key,
+                                                        self.num_episodes), static_argnums=2)
 
     def __call__(self, params: Any, seed: int = 0, *, samples: int | None = None,
                  train_seconds: float | None = None) -> dict:
         start = time.time()
-        acc = jax.device_get(self._run(params, jax.random.PRNGKey(seed)))
-        return _finish(summarize(acc, self.env.control_dt), time.time() - start, samples, train_seconds)
+        key = jax.random.PRNGKey(seed)
+        result = summarize(jax.device_get(self._run(params, key, True)), self.env.control_dt)
+        if self.stochastic:
+            noisy = summarize(jax.device_get(self._run(params, key, False)), self.env.control_dt)
+            result.update({f"stochastic_{k}": noisy[k] for k in self.STOCHASTIC_FIELDS})
+        return _finish(result, time.time() - start, samples, train_seconds)

@@ -13,18 +13,13 @@ from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
 
 
-def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env: Any = None,
-                 write: bool = True) -> dict[str, Any]:
-    """NR of RUN's latest checkpoint, in `env` if given (e.g. other physics settings), else in
-    the run's own; seed defaults to run.seed + 1, as in training. `write`: also save it as
-    RUN/eval.json."""
+def load_run_policy(run_dir: Path, env: Any = None) -> tuple[Any, Any, Any, dict[str, Any], int]:
+    """(config, env, deterministic policy fn, checkpoint metadata, checkpoint step) of RUN's latest
+    checkpoint; the env is the run's own unless given."""
     config = folder.load_config(run_dir)
-    if episodes is not None and episodes < 1:
-        raise UserError(f"--episodes {episodes}: must be at least 1")
     step = folder.require_checkpoint(run_dir)  # before the slow env build
 
     from mjxmimic.learn.ppo import make_networks, make_policy_fn
-    from mjxmimic.runs.evaluate import evaluate
 
     if env is None:
         from mjxmimic.envs.mjx_env import make_env
@@ -32,7 +27,20 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
         env = make_env(config)
     params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, step)
     networks = make_networks(env.observation_size, env.action_size, config)
-    policy = make_policy_fn(networks, params, deterministic=True)
+    return config, env, make_policy_fn(networks, params, deterministic=True), meta, step
+
+
+def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env: Any = None,
+                 write: bool = True) -> dict[str, Any]:
+    """NR of RUN's latest checkpoint, in `env` if given (e.g. other physics settings), else in
+    the run's own; seed defaults to run.seed + 1, as in training. `write`: also save it as
+    RUN/eval.json."""
+    if episodes is not None and episodes < 1:
+        raise UserError(f"--episodes {episodes}: must be at least 1")
+    config, env, policy, meta, step = load_run_policy(run_dir, env)
+
+    from mjxmimic.runs.evaluate import evaluate
+
     result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed,
                       episodes=episodes, samples=meta["env_steps"], train_seconds=meta["elapsed_seconds"])
     if meta.get("time_to_skill_s") is not None:

@@ -103,14 +103,19 @@ def read_eval(run_dir: Path) -> dict[str, Any] | None:
         raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
 
 
-def write_eval(run_dir: Path, result: dict[str, Any]) -> Path:
-    """Write RUN/eval.json whole (a temporary file renamed into place): a reader such as a
-    sweep's report never sees half of it."""
-    path = eval_path(run_dir)
+def write_json_atomic(path: Path, data: Any) -> Path:
+    """Write a JSON file whole (a temporary file renamed into place): a reader such as a sweep's
+    report never sees half of it."""
+    path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(result, indent=2) + "\n")
+    tmp.write_text(json.dumps(data, indent=2) + "\n")
     tmp.replace(path)
     return path
+
+
+def write_eval(run_dir: Path, result: dict[str, Any]) -> Path:
+    """Write RUN/eval.json whole."""
+    return write_json_atomic(eval_path(run_dir), result)
 
 
 # ---- checkpoints ---------------------------------------------------------------------------------

@@ -1,0 +1,80 @@
+"""DeepMimic's Table 6 push test (EVALUATION.md, "Push robustness"), the parts that do not depend
+on a simulator: when and where a trial pushes, which force it pushes with, which trials count as
+survived, and the search for the largest force that 90 % of the trials survive. `mjxmimic eval
+--push` runs the trials on MJX (mjxmimic.runs.push_eval), `mjxmimic play --push` on MuJoCo C.
+
+A trial starts from the reference state at a random clip time (RSI), tracks for `LEAD_S`, then a
+horizontal force pushes the root (pelvis) for `PUSH_S`, along the character's current facing
+(forward) or 90 degrees to its left (sideways); it survives if no fall-contact termination fires
+within `AFTER_S` of the push's end. A non-looping clip may end before that: a trial that reaches
+the clip's end standing survives. All trials of one search share their start times, so that the
+survival rate depends on the force alone.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+from mjxmimic.core import quat
+from mjxmimic.core.kinematics import ROOT_BODY
+
+LEAD_S = 1.0
+PUSH_S = 0.2
+AFTER_S = 5.0
+TRIALS = 32
+SURVIVAL = 0.9
+RESOLUTION_N = 10.0
+MAX_FORCE_N = 5000.0
+DIRECTIONS = {"forward": 0.0, "sideways": 0.5 * math.pi}  # turn from the facing, counter-clockwise
+
+
+def steps(control_dt: float) -> tuple[int, int, int]:
+    """(first push step, push steps, trial steps) at the control rate."""
+    lead, push, after = (int(round(s / control_dt)) for s in (LEAD_S, PUSH_S, AFTER_S))
+    return lead, push, lead + push + after
+
+
+def start_time_range(duration: float, loop: bool) -> float:
+    """Trials start in [0, this): anywhere in a looping clip; early enough in a non-looping one
+    that the push ends before the clip does."""
+    return duration if loop else max(duration - LEAD_S - PUSH_S, 0.0)
+
+
+def wrench(qpos: Any, force_n: Any, turn: Any, active: Any, nbody: int, xp: Any) -> Any:
+    """(nbody, 6) world-frame force and torque: `force_n` on the root along its facing turned by
+    `turn`, where `active`."""
+    yaw = quat.heading(qpos[3:7], xp) + turn
+    zero = xp.zeros_like(yaw)
+    f = force_n * active * xp.stack([xp.cos(yaw), xp.sin(yaw), zero, zero, zero, zero])
+    on_root = xp.arange(nbody) == ROOT_BODY
+    return xp.where(on_root[:, None], f[None, :], 0.0).astype(xp.float32)
+
+
+def largest_survived_force(survival_rate: Callable[[float], float], resolution: float = RESOLUTION_N,
+                           max_force: float = MAX_FORCE_N) -> tuple[float, list[tuple[float, float]]]:
+    """The largest force (N) whose survival rate is at least SURVIVAL, to within `resolution`:
+    doubling from 100 N until a force fails, then bisection. Returns it and every (force, rate)
+    tried. 0 when even an unpushed trial set does not survive; `max_force` when nothing fails."""
+    tried: list[tuple[float, float]] = []
+
+    def ok(force: float) -> bool:
+        rate = float(survival_rate(force))
+        tried.append((force, rate))
+        return rate >= SURVIVAL
+
+    if not ok(0.0):
+        return 0.0, tried
+    low, high = 0.0, 100.0
+    while ok(high):
+        low = high
+        if high >= max_force:
+            return max_force, tried
+        high = min(2.0 * high, max_force)
+    while high - low > resolution:
+        mid = 0.5 * (low + high)
+        if ok(mid):
+            low = mid
+        else:
+            high = mid
+    return low, tried
