@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# Train several runs side by side on the lent GPU within one 10-minute device call, streaming
-# their metrics into $OUT as they go and packing the run folders (latest checkpoint) at the end,
-# so a run can be resumed in the next call (newest checkpoint only; runs.tgz.* split below the
-# 16 MB file limit).
-#   bash experiments/device_train.sh SECONDS "NAME|ARGS..." ["NAME|ARGS..." ...]
-# ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with ARGS, which
-# may then only be --set run.* or ppo.learning_rate* keys). Several runs on a machine with a GPU
-# for each: one GPU per run; otherwise they share the GPUs (one run alone trains data-parallel).
+# Train runs on the lent GPU within one 10-minute device call, streaming their metrics into $OUT
+# as they go and packing the run folders (latest checkpoint) at the end, so that a run can be
+# resumed in the next call (newest checkpoint only; runs.tgz.* split below the 16 MB file limit).
+#   bash experiments/device_train.sh SECONDS "LANE" ["LANE" ...]
+# A LANE is "NAME|ARGS" or several of them joined by ';' (run one after the other); lanes run side
+# by side. ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with
+# ARGS, which may then only be --set run.* or ppo.learning_rate* keys). SECONDS bounds each run.
+# Several lanes on a machine with a GPU for each: one GPU per lane; otherwise they share the GPUs
+# (one lane alone trains data-parallel).
 set -u
 seconds=$1; shift
 export PYTHONUNBUFFERED=1
@@ -14,38 +15,53 @@ own_gpu=0
 if [ $# -gt 1 ] && [ "$(nvidia-smi -L 2>/dev/null | wc -l)" -ge $# ]; then own_gpu=1; fi
 if [ "$own_gpu" = 1 ]; then export XLA_PYTHON_CLIENT_MEM_FRACTION=0.75
 else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2))"); fi
+
+train() {  # NAME ARGS...
+  local name=$1; shift
+  if [ -d "runs/$name/checkpoints" ]; then
+    python3 -m mjxmimic.cli train --resume "runs/$name" "$@" --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1
+  else
+    python3 -m mjxmimic.cli train --out "runs/$name" "$@" --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1
+  fi
+}
+
+names=()
 pids=()
 i=0
-for spec in "$@"; do
-  name=${spec%%|*}; args=${spec#*|}
-  if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=$i; fi
-  i=$((i + 1))
-  if [ -d "runs/$name/checkpoints" ]; then
-    python3 -m mjxmimic.cli train --resume "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
-  else
-    python3 -m mjxmimic.cli train --out "runs/$name" $args --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1 &
-  fi
+for lane in "$@"; do
+  IFS=';' read -ra specs <<< "$lane"
+  for spec in "${specs[@]}"; do names+=("${spec%%|*}"); done
+  (
+    if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=$i; fi
+    for spec in "${specs[@]}"; do
+      # shellcheck disable=SC2086
+      train "${spec%%|*}" ${spec#*|}
+    done
+  ) &
   pids+=($!)
+  i=$((i + 1))
 done
 while kill -0 "${pids[@]}" 2>/dev/null; do
-  for spec in "$@"; do n=${spec%%|*}; cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null; done
+  for n in "${names[@]}"; do cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null; done
   sleep 15
 done
-for spec in "$@"; do
-  n=${spec%%|*}; cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
+for n in "${names[@]}"; do
+  cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
   echo "== $n"; tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
   python3 - "runs/$n" <<'PY'
 import json, sys
 for line in open(sys.argv[1] + "/metrics.jsonl"):
     d = json.loads(line)
     if "eval/nr" in d:
-        print(f"  samples {d['step']:>11,}  wall {d['wall']:6.0f} s  NR {d['eval/nr']:.3f}  falls {d['eval/fall_rate']:.2f}")
+        extra = f"  stochastic {d['eval/stochastic_nr']:.3f}" if "eval/stochastic_nr" in d else ""
+        print(f"  samples {d['step']:>11,}  wall {d['wall']:6.0f} s  NR {d['eval/nr']:.3f}"
+              f"  paper {d['eval/nr_paper']:.3f}  falls {d['eval/fall_rate']:.2f}{extra}")
 PY
 done
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
   ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
 done
-for spec in "$@"; do  # into the archive: $OUT brings back at most 8 files
-  n=${spec%%|*}; mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
+for n in "${names[@]}"; do  # into the archive: $OUT brings back at most 8 files
+  mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
 done
 tar czf - runs | split -b 15M - "$OUT/runs.tgz."

@@ -54,7 +54,7 @@ def _run_push(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    paper = next((v for k, v in PAPER_PUSH_N.items() if k in Path(result["clip"]).stem), None)
+    paper = PAPER_PUSH_N.get(Path(result["clip"]).stem.removeprefix("humanoid3d_"))
     print(f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,}): largest push survived "
           f"by {0.9:.0%} of {args.trials} trials, 0.2 s on the pelvis")
     for i, name in enumerate(("forward", "sideways")):
