@@ -1,0 +1,51 @@
+"""The skill-suite table: for each run folder given (default: the folders beside this script), its
+paper-form NR beside DeepMimic's Table 2, its released-form NR, the samples and seconds to reach
+the paper's NR (or its best within the run), the final evaluation and its fall rate.
+
+    python experiments/skills/table.py [RUN ...] > table.md
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+# DeepMimic's Table 2 (paper-form NR), ../shared/docs/DEEPMIMIC.md
+PAPER_NR = {"walk": 0.985, "run": 0.951, "jog": 0.951, "jump": 0.947, "crawl": 0.932, "getup_facedown": 0.885,
+            "kick": 0.854, "getup_faceup": 0.838, "spin": 0.664, "dance_a": 0.863, "dance_b": 0.822,
+            "punch": 0.812, "sideflip": 0.805, "cartwheel": 0.804, "spinkick": 0.748, "roll": 0.735,
+            "backflip": 0.729, "frontflip": 0.485}
+
+
+def evaluations(run: Path) -> list[dict]:
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line.strip()]
+    return [r for r in rows if "eval/nr_paper" in r]
+
+
+def row(run: Path) -> str:
+    evals = evaluations(run)
+    clip = run.name
+    paper = PAPER_NR.get(clip)
+    best = max(evals, key=lambda r: r["eval/nr_paper"])
+    reached = next((r for r in evals if paper is not None and r["eval/nr_paper"] >= paper), None)
+    at = reached or best
+    verdict = "yes" if reached else "no"
+    last = evals[-1]
+    return (f"| {clip} | {paper if paper is not None else '-'} | {best['eval/nr_paper']:.3f} | {best['eval/nr']:.3f} "
+            f"| {verdict} | {at['step'] / 1e6:.0f} M | {at['wall']:.0f} s | {last['eval/nr_paper']:.3f} "
+            f"| {last['step'] / 1e6:.0f} M | {last['eval/fall_rate']:.2f} |")
+
+
+def main(paths: list[str]) -> None:
+    runs = [Path(p) for p in paths] or sorted(p for p in Path(__file__).parent.iterdir()
+                                              if (p / "metrics.jsonl").is_file())
+    print("| clip | paper NR (Table 2) | best NR, paper form | released form | reached paper | samples | "
+          "seconds | final NR, paper form | final samples | final fall rate |")
+    print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|")
+    for run in runs:
+        print(row(run))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
