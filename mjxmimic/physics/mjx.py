@@ -88,6 +88,9 @@ class MjxPhysics:
         self.dt = float(scene.model.opt.timestep)
         self.contact_adr = jnp.asarray(scene.contact_adr)
         if impl == "warp":
+            import warp
+
+            warp.config.log_level = warp.LOG_WARNING  # no start-up banner, no line per module loaded
             with _quiet_solver_limits():
                 self.sys = mjx.put_model(scene.model, impl="warp")
             self._data0 = mjx.make_data(scene.model, impl="warp", naconmax=max_worlds * contacts_per_world,
