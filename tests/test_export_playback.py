@@ -368,6 +368,15 @@ def test_play_cli_reports_nr_and_ratio_without_importing_jax(policy_file):
         assert key in out
 
 
+def test_play_push_test_without_jax(policy_file):
+    result = _run_play(policy_file, "--push", "--trials", "2", "--json")
+    assert result.returncode == 0, result.stderr
+    assert "JAX_IMPORTED=False" in result.stderr, result.stderr
+    out = json.loads(result.stdout)
+    assert out["push_trials"] == 2 and out["push_forward_n"] >= 0 and out["push_sideways_n"] >= 0
+    assert out["push_forward_tried"][0][0] == 0.0  # the search starts unpushed
+
+
 def test_play_text_output_and_run_folder(run, policy_file, capsys):
     assert cli_main(["play", str(run["dir"]), "--episodes", "2", "--seed", "5"]) == 0
     out = capsys.readouterr().out

@@ -74,3 +74,26 @@ def test_pushed_trials_on_mjx(residual_env):
     knocked = float(trials(key, jnp.float32(4000.0), jnp.float32(0.0)))
     assert knocked == 0.0 and unpushed >= knocked
     assert trials._cache_size() == 1  # force and direction are traced: one compilation per search
+
+
+def test_pushed_trials_on_mujoco_c(character):
+    """The CPU runner: a strong push knocks every trial down, in the direction pushed."""
+    from mjxmimic.core.config import make_config
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.portable.push_playback import survival_rate
+
+    env = CpuEnv(make_config("cpu", {"env.action_mode": "residual"}), character,
+                 load_clip_source("slow_walk", character))
+    zero = lambda obs: np.zeros(character.action_size)  # noqa: E731 (PD towards the reference)
+    starts = np.array([0.1, 0.6])
+    assert survival_rate(env, zero, 4000.0, 0.0, starts) == 0.0
+    assert survival_rate(env, zero, 0.0, 0.0, starts) >= 0.0
+    env.reset_at(0.5)
+    yaw = float(quat.heading(env.data.qpos[3:7].copy()))
+    before = env.data.qvel[:2].copy()
+    env.step(zero(None), external_force=protocol.wrench(env.data.qpos, 2000.0, 0.5 * math.pi, 1.0,
+                                                        env.model.nbody, np))
+    dv = env.data.qvel[:2] - before
+    assert np.dot(dv / np.linalg.norm(dv), [-math.sin(yaw), math.cos(yaw)]) > 0.9  # to its left
+

@@ -54,13 +54,17 @@ def _run_push(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
+    print_push_table(f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,})", result)
+    return 0
+
+
+def print_push_table(title: str, result: dict) -> None:
+    """The two forces, beside DeepMimic's Table 6 for a clip of that name."""
     paper = PAPER_PUSH_N.get(Path(result["clip"]).stem.removeprefix("humanoid3d_"))
-    print(f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,}): largest push survived "
-          f"by {0.9:.0%} of {args.trials} trials, 0.2 s on the pelvis")
+    print(f"{title}: largest push survived by 90% of {result['push_trials']} trials, 0.2 s on the pelvis")
     for i, name in enumerate(("forward", "sideways")):
         beside = f"   (paper, Table 6: {paper[i]} N)" if paper else ""
         print(f"  {name:<9} {result[f'push_{name}_n']:7.0f} N{beside}")
-    return 0
 
 
 def run(args: argparse.Namespace) -> int:

@@ -10,6 +10,8 @@ times are the MJX evaluation's own (carried in the file) unless --seed, --clip o
 than it ran ask for a fresh seeded draw. Reports NR, fall rate, survival, pose and end-effector
 errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
+--push runs DeepMimic's Table 6 push test instead (mjxmimic.portable.push_playback), as
+`mjxmimic eval RUN --push` does on MJX.
 """
 
 from __future__ import annotations
@@ -33,6 +35,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="draw start times from this seed instead of using the MJX evaluation's")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--viewer", action="store_true", help="watch in MuJoCo's viewer (needs a display)")
+    parser.add_argument("--push", action="store_true",
+                        help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
+                             "sideways, that 90%% of the trials survive (EVALUATION.md)")
+    parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
 
 
 def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
@@ -67,6 +73,23 @@ def _viewer_loop(env, policy, starts):
         return evaluate(env, policy, starts, on_step=on_step)
 
 
+def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
+    from mjxmimic.commands.evaluate import print_push_table
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.push_playback import push_test
+
+    if args.trials < 1:
+        raise UserError(f"--trials {args.trials}: must be at least 1")
+    say = None if args.json else (lambda line: print(f"  {line}", flush=True))
+    result = {"policy": str(pf.path), "clip": clip.name,
+              **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say)}
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print_push_table(f"{pf.path} on {clip.name}, MuJoCo CPU", result)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.core.errors import UserError
 
@@ -92,6 +115,8 @@ def run(args: argparse.Namespace) -> int:
     policy = pf.policy()
     starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)
 
+    if args.push:
+        return _push(args, pf, env, policy, clip)
     if args.viewer:
         result = _viewer_loop(env, policy, starts)
     else:

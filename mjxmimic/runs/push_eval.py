@@ -4,7 +4,6 @@ so that the whole search reuses one compilation."""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -51,20 +50,8 @@ def push_test(env: Any, policy_fn: Callable, seed: int = 0, trials: int = protoc
     with every (force, survival rate) tried."""
     run = make_trials(env, policy_fn, trials)
     key = jax.random.PRNGKey(seed)
-    start = time.time()
-    result: dict[str, Any] = {"push_trials": trials, "push_seconds_each": protocol.PUSH_S}
-    for name, turn in protocol.DIRECTIONS.items():
-        def rate(force: float) -> float:
-            value = float(run(key, jnp.float32(force), jnp.float32(turn)))
-            if progress is not None:
-                progress(f"push {name} {force:.0f} N: {value:.0%} survive")
-            return value
-
-        force, tried = protocol.largest_survived_force(rate)
-        result[f"push_{name}_n"] = force
-        result[f"push_{name}_tried"] = tried
-    result["push_eval_seconds"] = time.time() - start
-    return result
+    return protocol.search(lambda force, turn: float(run(key, jnp.float32(force), jnp.float32(turn))),
+                           trials, progress)
 
 
 def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol.TRIALS, env: Any = None,

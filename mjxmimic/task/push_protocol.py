@@ -14,6 +14,7 @@ survival rate depends on the force alone.
 from __future__ import annotations
 
 import math
+import time
 from typing import Any, Callable
 
 from mjxmimic.core import quat
@@ -78,3 +79,21 @@ def largest_survived_force(survival_rate: Callable[[float], float], resolution: 
         else:
             high = mid
     return low, tried
+
+
+def search(survival_rate: Callable[[float, float], float], trials: int,
+           progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """push_forward_n and push_sideways_n, with every (force, survival rate) tried, from
+    `survival_rate(force_n, turn)` of a simulator's trial set."""
+    start = time.time()
+    result: dict[str, Any] = {"push_trials": trials, "push_seconds_each": PUSH_S}
+    for name, turn in DIRECTIONS.items():
+        def rate(force: float) -> float:
+            value = survival_rate(force, turn)
+            if progress is not None:
+                progress(f"push {name} {force:.0f} N: {value:.0%} survive")
+            return value
+
+        result[f"push_{name}_n"], result[f"push_{name}_tried"] = largest_survived_force(rate)
+    result["push_eval_seconds"] = time.time() - start
+    return result
