@@ -60,7 +60,7 @@ class StandInEnv:
                                 jnp.array([jnp.sin(w), jnp.cos(w)]), jnp.zeros(self._pad)])
 
     def _metrics(self, reward, err, ee, fell):
-        return {"reward": reward, "reward/track": reward, "error/pose": err,
+        return {"reward": reward, "reward/imitation": reward, "reward/track": reward, "error/pose": err,
                 "error/end_effector": ee, "fell": fell}
 
     def reset_at(self, rng, t, clip=0) -> State:

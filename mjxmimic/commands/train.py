@@ -24,6 +24,9 @@ from mjxmimic.runs import folder
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip", help="clip NAME or PATH (default: the config's clip)")
+    parser.add_argument("--task", choices=["heading"],
+                        help="a task to chase while imitating (task.name): heading = walk in a commanded "
+                             "direction at a commanded speed")
     parser.add_argument("--preset", default=None, choices=sorted(config_lib.PRESETS),
                         help="config preset (default: gpu)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
@@ -56,6 +59,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
 
     if args.clip is not None:
         overrides["clip.name"] = args.clip
+    if args.task is not None:
+        overrides["task.name"] = args.task
     if args.seed is not None:
         overrides["run.seed"] = str(args.seed)
     config = config_lib.make_config(args.preset or "gpu", overrides)

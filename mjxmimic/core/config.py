@@ -72,6 +72,15 @@ class RewardConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class TaskConfig:
+    name: str = ""  # "" (imitation only) or "heading" (mjxmimic.task.goals)
+    imitation_weight: float = 0.7  # r = imitation_weight * r_imitation + task_weight * r_task
+    task_weight: float = 0.3
+    speed: float = 0.0  # heading: commanded speed (m/s); 0 = the clip's own average speed
+    resample_s: float = 5.0  # heading: a new direction every this many seconds of the episode
+
+
+@dataclasses.dataclass(frozen=True)
 class PPOConfig:
     num_envs: int = 8192
     unroll_length: int = 16
@@ -119,6 +128,7 @@ class Config:
     env: EnvConfig = EnvConfig()
     physics: PhysicsConfig = PhysicsConfig()
     reward: RewardConfig = RewardConfig()
+    task: TaskConfig = TaskConfig()
     ppo: PPOConfig = PPOConfig()
     run: RunConfig = RunConfig()
 
@@ -261,6 +271,11 @@ def validate(config: Config) -> None:
         (env.push_duration_s > 0, "env.push_duration_s", "must be positive"),
         (env.push_interval_s > env.push_duration_s, "env.push_interval_s", "must be longer than env.push_duration_s"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
+        (config.task.name in ("", "heading"), "task.name", "must be '' (none) or 'heading'"),
+        (config.task.imitation_weight >= 0 and config.task.task_weight >= 0, "task.imitation_weight",
+         "task weights must be >= 0"),
+        (config.task.speed >= 0, "task.speed", "must be >= 0 (0: the clip's own speed)"),
+        (config.task.resample_s > 0, "task.resample_s", "must be positive"),
         (config.physics.backend in ("auto", "warp", "jax"), "physics.backend", "must be 'auto', 'warp' or 'jax'"),
         (config.physics.contacts_per_world >= 1, "physics.contacts_per_world", "must be at least 1"),
         (config.physics.constraints_per_world >= 1, "physics.constraints_per_world", "must be at least 1"),

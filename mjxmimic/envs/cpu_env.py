@@ -20,6 +20,7 @@ from mjxmimic.core.config import Config
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
+from mjxmimic.task import goals
 from mjxmimic.task import nr as nr_rule
 from mjxmimic.task import termination
 
@@ -76,10 +77,11 @@ class CpuEnv:
         kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
         return step_lib.observe(self.spec, self.physics, kin, self.motion)
 
-    def reset_at(self, t: float) -> np.ndarray:
-        """The reference state at clip time t (RSI); returns the observation."""
+    def reset_at(self, t: float, event_seed: float = 0.0) -> np.ndarray:
+        """The reference state at clip time t (RSI); returns the observation. `event_seed` in
+        [0, 1) varies the episode's events and goals."""
         qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
-        return self.set_state(qpos, qvel, t)
+        return self.set_state(qpos, qvel, t, event_seed=event_seed)
 
     def step(self, action: Any, external_force: Any = None, grade_paper: bool = False) -> Step:
         out = step_lib.control_step(self.spec, self.physics, self.data, self.motion,
@@ -100,19 +102,25 @@ class CpuEnv:
         return np.random.default_rng(seed).uniform(0.0, self.clip_duration, size=n).astype(np.float32)
 
     def episode(self, policy: Callable[[np.ndarray], np.ndarray], t0: float,
-                on_step: Callable[[CpuEnv, Step], Any] | None = None) -> dict[str, Any]:
+                on_step: Callable[[CpuEnv, Step], Any] | None = None, event_seed: float = 0.0) -> dict[str, Any]:
         """One evaluation episode from the reference state at t0, counted by `mjxmimic.task.nr`.
         on_step(env, step) after every step (a viewer); returning False ends the episode there."""
-        obs = self.reset_at(t0)
+        obs = self.reset_at(t0, event_seed)
         horizon = self.eval_horizon(t0)
         acc = nr_rule.start((), np)
+        task_acc = goals.metrics_start((), np) if self.config.task.name else None
         for k in range(horizon):
             s = self.step(policy(obs), grade_paper=True)
-            acc = nr_rule.add_step(acc, k, horizon, s.reward, s.metrics["reward_paper"], s.failed, s.clip_end,
-                                   s.metrics["error/pose"], s.metrics["error/end_effector"], np)
+            m = s.metrics
+            if task_acc is not None:
+                task_acc = goals.metrics_add(task_acc, True, m, np)
+            acc = nr_rule.add_step(acc, k, horizon, m["reward/imitation"], m["reward_paper"], s.failed, s.clip_end,
+                                   m["error/pose"], m["error/end_effector"], np)
             if (on_step is not None and on_step(self, s) is False) or not acc["alive"]:
                 break
             obs = s.obs
         out = {k: float(acc[k]) for k in nr_rule.FIELDS}
         out.update(start_time=float(t0), horizon=horizon, nr=out["reward"] / horizon)
+        if task_acc is not None:
+            out["task"] = {k: float(v) for k, v in task_acc.items()}
         return out

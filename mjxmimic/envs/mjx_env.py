@@ -92,7 +92,10 @@ class ImitationEnv(Env):
 
     @property
     def metric_keys(self) -> list[str]:
-        keys = ["reward", "fell", "lost_track", "physics/reset_nan", "error/pose", "error/end_effector"]
+        keys = ["reward", "reward/imitation", "fell", "lost_track", "physics/reset_nan", "error/pose",
+                "error/end_effector"]
+        if self.config.task.name:
+            keys += ["reward/task", "task/speed_along", "task/speed"]
         return keys + [f"reward/{t.name}" for t in self.spec.rewards]
 
     def step(self, state: State, action: jax.Array) -> State:

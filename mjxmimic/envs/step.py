@@ -24,6 +24,7 @@ from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
 from mjxmimic.task import events as event_terms
+from mjxmimic.task import goals
 from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import reward as reward_terms
 from mjxmimic.task import termination
@@ -103,15 +104,26 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         paper_rewards=reward_terms.terms("paper"),
         control_dt=1.0 / env.control_hz,
         max_steps=int(round(env.episode_seconds * env.control_hz)),
-        observation_size=obs_terms.observation_size(scene.model.nbody, env.observations),
+        observation_size=(obs_terms.observation_size(scene.model.nbody, env.observations)
+                          + goals.GOAL_SIZE[config.task.name]),
         action_size=character.action_size,
         config=config,
     )
 
 
+def goal(spec: Spec, motion: Motion, xp: Any) -> tuple[Any, Any]:
+    """The task's goal in force for the coming step: (direction yaw, speed) of the heading task."""
+    return goals.heading_goal(spec.config.task, spec.lib, motion.clip, motion.steps * spec.control_dt,
+                              motion.event_seed, xp)
+
+
 def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
+    """The observation terms, then the goal when there is a task (DEEPMIMIC.md)."""
     xp = physics.xp
-    return obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp)
+    obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp)
+    if not spec.config.task.name:
+        return obs
+    return xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
 
 
 def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0) -> tuple[Any, Motion, Any]:
@@ -166,8 +178,19 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     offset = motion.root_offset
     if spec.config.reward.sync_root_position:
         offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
-    ref = physics.kinematics(motion_lib.shift_root(ref_qpos, offset, xp), ref_qvel)
+    task = spec.config.task
+    if task.name:
+        ref = physics.kinematics(*goals.align_reference(ref_qpos, ref_qvel, qpos, xp))
+    else:
+        ref = physics.kinematics(motion_lib.shift_root(ref_qpos, offset, xp), ref_qvel)
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
+    metrics["reward/imitation"] = r
+    if task.name:
+        yaw, speed = goal(spec, motion, xp)
+        along = goals.speed_along(sim, spec.layout.body_mass, yaw, xp)
+        r_task = goals.heading_reward(along, speed, xp)
+        r = task.imitation_weight * r + task.task_weight * r_task
+        metrics.update({"reward/task": r_task, "task/speed_along": along, "task/speed": speed})
 
     outcome = termination.Outcome(sim=sim, ref=ref, contacts=sub.contacts, fall_mask=spec.fall_masks[clip],
                                   diverged=sub.diverged, max_joint_velocity=env.max_joint_velocity,
@@ -182,6 +205,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     clip_end = ~lib.loop[clip] & (t >= lib.duration[clip] - 1e-4)
     done = failed | timeout | clip_end
     r = xp.where(failed, 0.0, r)
+    metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
     motion = motion._replace(time=t, steps=steps, root_offset=offset)
     obs = observe(spec, physics, sim, motion)

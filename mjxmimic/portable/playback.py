@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from mjxmimic.envs.cpu_env import CpuEnv, Step
+from mjxmimic.task import goals
 from mjxmimic.task import nr as nr_rule
 
 
@@ -29,11 +30,16 @@ def evaluate(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], starts: An
     t_start = time.perf_counter()
     episodes = []
     for i, t0 in enumerate(np.asarray(starts, np.float32)):
-        episodes.append(env.episode(policy, float(t0), on_step=on_step))
+        # each episode its own goals (a task's), the same in every playback
+        episodes.append(env.episode(policy, float(t0), on_step=on_step, event_seed=(i * goals.PLASTIC) % 1.0))
         if progress is not None:
             progress(i, episodes[-1])
     wall = time.perf_counter() - t_start
     out = summarize(episodes, env.control_dt)
+    if episodes and "task" in episodes[0]:
+        task = {k: np.array([e["task"][k] for e in episodes]) for k in episodes[0]["task"]}
+        out.update(goals.metrics_summarize(task, np.array([e["horizon"] for e in episodes]),
+                                           np.array([e["failed"] for e in episodes])))
     steps = int(sum(e["steps"] for e in episodes))
     out.update(control_steps=steps, eval_seconds=wall, steps_per_s=steps / wall if wall > 0 else None,
                start_times=[e["start_time"] for e in episodes],

@@ -5,7 +5,9 @@ t_i ~ U[0, clip duration) from the reference state (RSI), runs the deterministic
 the mean) through `env.transition(..., evaluation=True)` (no auto-reset, none of the training-only
 terminations) and is counted by `mjxmimic.task.nr`, the rule the CPU player shares: NR under the
 training reward (`nr`, the released five-term form unless the run says otherwise) and under the
-paper's four-term reward (`nr_paper`) from the same episodes, fall rate, survival, errors.
+paper's four-term reward (`nr_paper`) from the same episodes, fall rate, survival, errors. With
+a task, both NRs grade the imitation reward alone, and the task's return and success rate
+(mjxmimic.task.goals) are reported beside them.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import jax
 import jax.numpy as jnp
 
 from mjxmimic.core.config import Config
+from mjxmimic.task import goals
 from mjxmimic.task import nr as nr_rule
 
 
@@ -35,28 +38,37 @@ def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: 
     horizon = jax.vmap(lambda t: env.eval_horizon(t, clip))(t0)
     transition = jax.vmap(lambda s, a: env.transition(s, a, evaluation=True))
 
+    has_task = "reward/task" in getattr(env, "metric_keys", ())
+
     def body(carry, k):
-        state, acc = carry
+        state, acc, task_acc = carry
         action = policy_fn(state.obs, jax.random.fold_in(k_policy, k))
         nxt = transition(state, action)
         m = nxt.metrics
-        acc = nr_rule.add_step(acc, k, horizon, nxt.reward, m["reward_paper"], nxt.info["failed"] > 0,
+        if has_task:
+            task_acc = goals.metrics_add(task_acc, acc["alive"] & (k < horizon), m, jnp)
+        acc = nr_rule.add_step(acc, k, horizon, m["reward/imitation"], m["reward_paper"], nxt.info["failed"] > 0,
                                nxt.info["clip_end"] > 0, m["error/pose"], m["error/end_effector"], jnp)
         # An episode that is over keeps its last state (finite, and cheap to step).
         state = jax.vmap(env.select)(acc["alive"], nxt, state)
-        return (state, acc), None
+        return (state, acc, task_acc), None
 
-    acc0 = nr_rule.start((num_episodes,), jnp)
-    (_, acc), _ = jax.lax.scan(body, (state, acc0), jnp.arange(env.max_eval_horizon))
+    start = (state, nr_rule.start((num_episodes,), jnp), goals.metrics_start((num_episodes,), jnp))
+    (_, acc, task_acc), _ = jax.lax.scan(body, start, jnp.arange(env.max_eval_horizon))
     acc["horizon"] = horizon
     acc["start_time"] = t0
+    if has_task:
+        acc["task"] = task_acc
     return acc
 
 
 def summarize(acc: dict, control_dt: float) -> dict:
     """Per-episode sums (host arrays) -> the EVALUATION.md numbers."""
     sums = {k: v for k, v in acc.items() if k in nr_rule.FIELDS}
-    return nr_rule.summarize(sums, acc["horizon"], control_dt)
+    result = nr_rule.summarize(sums, acc["horizon"], control_dt)
+    if "task" in acc:
+        result.update(goals.metrics_summarize(acc["task"], acc["horizon"], acc["failed"]))
+    return result
 
 
 def _finish(result: dict, seconds: float, samples: int | None, train_seconds: float | None) -> dict:

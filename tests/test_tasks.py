@@ -1,0 +1,127 @@
+"""The target-heading task (mjxmimic.task.goals): its goals, reward, observation, the reference that
+turns with the character, and the task metrics of an evaluation."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mjxmimic.core import quat
+from mjxmimic.core.config import make_config
+from mjxmimic.core.errors import UserError
+from mjxmimic.task import goals
+
+HEADING = make_config("cpu", {"task.name": "heading", "env.action_mode": "residual", "task.resample_s": 2.0})
+
+
+@pytest.fixture(scope="module")
+def cpu_env(character):
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    return CpuEnv(HEADING, character, load_clip_source("slow_walk", character))
+
+
+def test_goals_change_every_resample_interval_and_spread_over_episodes(cpu_env):
+    lib = cpu_env.spec.lib
+    yaw = lambda t, seed: float(goals.heading_goal(HEADING.task, lib, 0, t, seed, np)[0])  # noqa: E731
+    assert yaw(0.0, 0.3) == yaw(1.99, 0.3) != yaw(2.0, 0.3)  # one direction per 2 s
+    assert yaw(0.5, 0.3) != yaw(0.5, 0.6)  # episodes differ by their seed
+    first = np.array([yaw(0.0, s) for s in np.linspace(0, 1, 64, endpoint=False)])
+    counts = np.histogram(first, bins=4, range=(0, 2 * math.pi))[0]
+    assert counts.min() >= 8  # spread around the circle
+    speed = float(goals.heading_goal(HEADING.task, lib, 0, 0.0, 0.3, np)[1])
+    shift = lib.cycle_shift[0]
+    assert speed == pytest.approx(np.hypot(*shift) / lib.duration[0], rel=1e-5)  # auto: the clip's own
+    fixed = make_config("cpu", {"task.name": "heading", "task.speed": 1.5}).task
+    assert float(goals.heading_goal(fixed, lib, 0, 0.0, 0.3, np)[1]) == pytest.approx(1.5)
+
+
+def test_heading_reward_does_not_punish_speeding():
+    assert goals.heading_reward(1.0, 1.0, np) == pytest.approx(1.0)
+    assert goals.heading_reward(2.0, 1.0, np) == pytest.approx(1.0)
+    assert goals.heading_reward(0.8, 1.0, np) == pytest.approx(math.exp(-2.5 * 0.04))
+    assert goals.heading_reward(-1.0, 1.0, np) == pytest.approx(math.exp(-10.0))
+
+
+def test_goal_is_observed_in_the_heading_frame(cpu_env):
+    obs = cpu_env.reset_at(0.4, event_seed=0.25)
+    yaw, speed = goals.heading_goal(HEADING.task, cpu_env.spec.lib, 0, 0.0, 0.25, np)
+    facing = quat.heading(cpu_env.data.qpos[3:7].copy())
+    assert obs.shape == (cpu_env.spec.observation_size,)
+    np.testing.assert_allclose(obs[-3:], [math.cos(yaw - facing), math.sin(yaw - facing), speed], atol=1e-5)
+
+
+def test_imitation_grades_the_pose_whichever_way_the_character_faces(cpu_env):
+    """The reference turns with the character: a reference state turned by 90 degrees and moved
+    away scores the imitation reward of the unturned one; without a task it would not."""
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion import library as motion_lib
+
+    plain = CpuEnv(make_config("cpu", {"env.action_mode": "residual"}), cpu_env.character, cpu_env.clip)
+    qpos, qvel = motion_lib.sample(cpu_env.spec.lib, 0, np.float32(0.4), np)
+    turned_q, turned_v = qpos.copy(), qvel.copy()
+    turn = quat.from_yaw(np.asarray(0.5 * math.pi))
+    turned_q[3:7] = quat.mul(turn, qpos[3:7])
+    turned_q[0:2] += [3.0, -2.0]
+    turned_v[0:3] = quat.rotate_yaw(qvel[0:3], np.asarray(0.5 * math.pi))
+    zero = np.zeros(cpu_env.character.action_size)
+    rewards = {}
+    for name, env in (("task", cpu_env), ("plain", plain)):
+        for label, (q, v) in (("straight", (qpos, qvel)), ("turned", (turned_q, turned_v))):
+            env.set_state(q, v, 0.4)
+            rewards[name, label] = env.step(zero).metrics["reward/imitation"]
+    assert rewards["task", "turned"] == pytest.approx(rewards["task", "straight"], abs=1e-3)
+    assert rewards["task", "straight"] == pytest.approx(rewards["plain", "straight"], abs=1e-3)
+    assert rewards["plain", "turned"] < rewards["plain", "straight"] - 0.2
+
+
+def test_training_reward_mixes_imitation_and_task(cpu_env):
+    cpu_env.reset_at(0.2, event_seed=0.1)
+    m = cpu_env.step(np.zeros(cpu_env.character.action_size)).metrics
+    assert m["reward"] == pytest.approx(0.7 * m["reward/imitation"] + 0.3 * m["reward/task"], rel=1e-5)
+    assert m["reward/task"] == pytest.approx(float(goals.heading_reward(m["task/speed_along"], m["task/speed"], np)))
+
+
+def test_cpu_evaluation_reports_task_metrics(cpu_env):
+    from mjxmimic.portable.playback import evaluate
+
+    out = evaluate(cpu_env, lambda obs: np.zeros(cpu_env.character.action_size), [0.1, 0.5, 0.9])
+    assert {"task_return", "speed_ratio", "success_rate"} <= set(out)
+    assert 0.0 <= out["task_return"] <= 1.0 and 0.0 <= out["success_rate"] <= 1.0
+    assert out["task_return"] < out["nr"]  # standing still does not reach a walking goal
+
+
+def test_success_counts_speed_within_tolerance_and_no_fall():
+    acc = {"task_reward": np.array([10.0, 10.0, 10.0]), "speed_along": np.array([9.0, 5.0, 10.0]),
+           "speed": np.array([10.0, 10.0, 10.0])}
+    out = goals.metrics_summarize(acc, np.array([20, 20, 20]), np.array([False, False, True]))
+    assert out["success_rate"] == pytest.approx(1 / 3) and out["task_return"] == pytest.approx(0.5)
+    assert out["speed_ratio"] == pytest.approx(0.8)
+
+
+def test_task_config_errors():
+    with pytest.raises(UserError, match="task.name"):
+        make_config("cpu", {"task.name": "juggle"})
+    with pytest.raises(UserError, match="task.resample_s"):
+        make_config("cpu", {"task.resample_s": 0})
+
+
+def test_mjx_env_appends_the_goal_and_evaluates_the_task(character):
+    import jax
+    import jax.numpy as jnp
+
+    from mjxmimic.envs.mjx_env import ImitationEnv
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.runs.evaluate import evaluate
+
+    config = make_config("cpu", {"task.name": "heading", "env.action_mode": "residual", "physics.backend": "jax",
+                                 "run.eval_episodes": 2})
+    env = ImitationEnv(config, character, [load_clip_source("slow_walk", character)])
+    plain = make_config("cpu", {"env.action_mode": "residual"})
+    assert env.observation_size == ImitationEnv(plain, character, env.clips).observation_size + 3
+    out = evaluate(env, lambda obs, key: jnp.zeros(obs.shape[:-1] + (env.action_size,)), config, seed=0)
+    assert {"task_return", "speed_ratio", "success_rate", "nr", "nr_paper"} <= set(out)
+    assert 0.0 <= out["task_return"] < out["nr"] <= 1.0
+    state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.3)
+    assert np.isfinite(np.asarray(state.obs)).all()
