@@ -119,3 +119,38 @@ def test_bad_output_name_and_size_are_one_line_errors(policy_file, tmp_path):
     result = run_cli("clips", "render", "squat", "--width", "100", "--out", tmp_path / "y.mp4")
     assert result.returncode == 2 and "multiple of 16" in result.stderr
     assert not (tmp_path / "x.gif").exists() and not (tmp_path / "y.mp4").exists()
+
+
+def test_push_is_drawn_as_a_red_arrow(character):
+    from mjxmimic.motion import library as motion
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.portable.render import Scene
+
+    lib = motion.build_motion_lib([load_clip_source("slow_walk", character)], character)
+    qpos, _ = motion.sample(lib, 0, 0.3)
+    scene = Scene(character.xml_path, character.nq, ghost=False, width=160, height=128)
+    try:
+        root = np.array([qpos[0], qpos[1], qpos[2]])
+        plain = scene.frame(qpos).astype(int)
+        pushed = scene.frame(qpos, arrow=(root - [0.0, 0.8, 0.0], root)).astype(int)
+    finally:
+        scene.close()
+    changed = np.abs(pushed - plain).sum(axis=-1) > 30
+    assert changed.sum() > 50  # the arrow is there
+    red = pushed[changed]
+    assert np.mean(red[:, 0] > red[:, 1] + 40) > 0.5  # and red
+
+
+def test_render_push_knocks_down_and_bad_push_is_one_line(policy_file, tmp_path):
+    frames = {}
+    for name, push in (("still", []), ("pushed", ["--push", "4000@0.2", "--push-direction", "sideways"])):
+        out = tmp_path / f"{name}.mp4"
+        result = run_cli("render", policy_file, "--out", out, *push, "--seconds", "2", "--width", "160",
+                         "--height", "128")
+        assert result.returncode == 0, result.stderr
+        assert "JAX_IMPORTED=False" in result.stderr
+        frames[name] = len(read_frames(out))
+    assert ", fell," in result.stdout and frames["pushed"] < frames["still"] - 5  # knocked down sooner
+    result = run_cli("render", policy_file, "--out", tmp_path / "bad.mp4", "--push", "300N")
+    assert result.returncode == 2 and "expected FORCE@TIME" in result.stderr
+    assert not (tmp_path / "bad.mp4").exists()

@@ -2,7 +2,8 @@
 
 One episode on MuJoCo's CPU simulator (as `mjxmimic play` runs it) from the reference state at
 --start, one frame per control step, until the episode ends or --seconds pass; --ghost adds the
-reference motion as a translucent copy of the character. POLICY is an exported file; a RUN folder
+reference motion as a translucent copy of the character; --push FORCE@TIME pushes the pelvis for
+0.2 s (the push test's push, a red arrow in the video) to show the recovery. POLICY is an exported file; a RUN folder
 uses RUN/policy.npz, or its latest checkpoint when there is none (that path imports JAX).
 Rendering is offscreen: EGL or OSMesa (mjxmimic.portable.render says which packages); videos need the
 "render" extra (imageio, imageio-ffmpeg).
@@ -24,8 +25,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--start", type=float, default=0.0, help="clip time of the first frame (s)")
     parser.add_argument("--seconds", type=float, default=None,
                         help="at most this long (default: until the episode ends, at most env.episode_seconds)")
-    parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--height", type=int, default=480)
+    parser.add_argument("--width", type=int, default=640, help="video width in pixels (a multiple of 16)")
+    parser.add_argument("--height", type=int, default=480, help="video height in pixels (a multiple of 16)")
+    parser.add_argument("--push", metavar="FORCE@TIME",
+                        help="push the pelvis with FORCE newtons for 0.2 s from TIME seconds into the episode")
+    parser.add_argument("--push-direction", choices=["forward", "sideways"], default="forward",
+                        help="along the character's facing, or to its left (default forward)")
+
+
+def parse_push(text: str, direction: str) -> tuple[float, float, float]:
+    """'300@1.5' -> (300 N, at 1.5 s, the direction's turn from the facing)."""
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.task.push_protocol import DIRECTIONS
+
+    try:
+        force, at = (float(part) for part in text.split("@"))
+    except ValueError:
+        raise UserError(f"--push {text!r}: expected FORCE@TIME, e.g. 300@1.5 (newtons, seconds)") from None
+    if force < 0 or at < 0:
+        raise UserError(f"--push {text!r}: force and time must be >= 0")
+    return force, at, DIRECTIONS[direction]
 
 
 def _check_size(width: int, height: int) -> None:
@@ -42,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from mjxmimic.runs.folder import load_policy_file
 
     _check_size(args.width, args.height)
+    push = None if args.push is None else parse_push(args.push, args.push_direction)
     check_video_path(args.out)
     if args.seconds is not None and args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
@@ -53,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
 
         clip = load_clip_source(args.clip, pf.character(), args.clips_dir)
     info = render_policy(pf, args.out, ghost=args.ghost, clip=clip, start=args.start, seconds=args.seconds,
-                         width=args.width, height=args.height)
+                         width=args.width, height=args.height, push=push)
     end = "fell" if info["fell"] else "did not fall"
     print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s at {info['fps']:.0f} fps, "
           f"{args.out.stat().st_size / 1024:.0f} KiB; {info['clip']} from t={info['start_time']:.2f} s, "

@@ -27,6 +27,8 @@ from mjxmimic.core.errors import UserError
 
 GHOST_PREFIX = "ghost/"
 GHOST_RGBA = (1.0, 0.62, 0.25, 0.3)
+PUSH_RGBA = (0.9, 0.1, 0.1, 1.0)
+PUSH_ARROW_M_PER_N = 1.0 / 500.0  # arrow length per newton of push
 EGL_VENDOR_DIRS = ("/usr/share/glvnd/egl_vendor.d", "/etc/glvnd/egl_vendor.d")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
 HEADLESS = ("egl", "osmesa")
@@ -145,8 +147,9 @@ class Scene:
         self.camera.elevation = elevation
         self._lookat: np.ndarray | None = None
 
-    def frame(self, qpos: Any, ghost_qpos: Any | None = None) -> np.ndarray:
-        """(height, width, 3) uint8 image of the pose(s)."""
+    def frame(self, qpos: Any, ghost_qpos: Any | None = None, arrow: tuple[Any, Any] | None = None) -> np.ndarray:
+        """(height, width, 3) uint8 image of the pose(s); `arrow` (tail, head) in world
+        coordinates draws a red arrow (a push)."""
         import mujoco
 
         d = self.data
@@ -159,6 +162,14 @@ class Scene:
         self._lookat = target if self._lookat is None else self._lookat + 0.2 * (target - self._lookat)
         self.camera.lookat[:] = self._lookat
         self.renderer.update_scene(d, camera=self.camera)
+        scene = self.renderer.scene
+        if arrow is not None and scene.ngeom < scene.maxgeom:
+            geom = scene.geoms[scene.ngeom]
+            mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
+                                np.array(PUSH_RGBA, np.float32))
+            mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.04, np.asarray(arrow[0], np.float64),
+                                 np.asarray(arrow[1], np.float64))
+            scene.ngeom += 1
         return self.renderer.render()
 
     def close(self) -> None:
@@ -199,11 +210,15 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
 
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
                   seconds: float | None = None, width: int = 640, height: int = 480,
-                  on_frame: Callable[[int], Any] | None = None) -> dict[str, Any]:
+                  on_frame: Callable[[int], Any] | None = None,
+                  push: tuple[float, float, float] | None = None) -> dict[str, Any]:
     """Video of one episode of an exported policy (mjxmimic.portable.policy_file.PolicyFile) from
     the reference state at clip time `start`, one frame per control step, until the episode ends
-    (fall, clip end, time limit) or `seconds` have passed."""
+    (fall, clip end, time limit) or `seconds` have passed. `push` (force N, episode time s, turn
+    from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow."""
     from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.core.kinematics import ROOT_BODY
+    from mjxmimic.task import push_protocol
 
     character = pf.character()
     env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
@@ -216,12 +231,20 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         obs = env.reset_at(start)
         ref, _ = env.reference(env.time)
         yield scene.frame(env.data.qpos, ref)
-        for _ in range(limit):
-            s = env.step(policy(obs))
+        for k in range(limit):
+            force, arrow = None, None
+            if push is not None:
+                newtons, at, turn = push
+                active = float(at - 1e-6 <= k * env.control_dt < at + push_protocol.PUSH_S - 1e-6)
+                force = push_protocol.wrench(env.data.qpos, newtons, turn, active, env.model.nbody, np)
+                if active:
+                    head = env.data.xipos[ROOT_BODY].copy()
+                    arrow = (head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head)
+            s = env.step(policy(obs), external_force=force)
             info["steps"] += 1
             info["reward"] += s.reward
             ref, _ = env.reference(env.time)
-            yield scene.frame(env.data.qpos, ref)
+            yield scene.frame(env.data.qpos, ref, arrow)
             if on_frame is not None:
                 on_frame(info["steps"])
             if s.done:
