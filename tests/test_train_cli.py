@@ -256,3 +256,32 @@ def test_checkpoint_files_stay_under_16_mb_with_gpu_sized_networks(tmp_path):
     b = ts.params.policy["params"]["hidden_0"]["kernel"]
     assert a.shape == (227, 1024) and (a == b).all()
     assert meta["env_steps"] == 0
+
+
+def test_the_best_evaluation_keeps_its_checkpoint(tmp_path):
+    from mjxmimic.runs import folder
+
+    run_dir = tmp_path / "run"
+    train(_standin_config(total_samples=5120, eval_every=1024), run_dir, env=StandInEnv(), progress=False)
+    first = folder.read_best(run_dir)
+    # resumed with a learning rate that wrecks the policy: later evaluations fall below the best
+    wreck = config_lib.apply_overrides(_standin_config(total_samples=10240, eval_every=1024),
+                                       {"ppo.learning_rate": 0.5})
+    train(wreck, run_dir, resume=True, env=StandInEnv(), progress=False)
+    evals = [r for r in read(run_dir) if "eval/nr" in r]
+    top = max(evals, key=lambda r: r["eval/nr"])
+    assert top["step"] <= 5120 and evals[-1]["eval/nr"] < top["eval/nr"] - 0.05, [r["eval/nr"] for r in evals]
+    best = folder.read_best(run_dir)
+    assert best == first  # compared with the recorded best after the resume, and kept
+    assert best["metric"] == "nr" and best["value"] == pytest.approx(top["eval/nr"])
+    assert best["checkpoint"] == top["step"] and best["eval"]["nr"] == pytest.approx(top["eval/nr"])
+    assert checkpoint.latest_checkpoint(run_dir, best=True) == top["step"]
+
+    assert folder.select_checkpoint(run_dir) == (top["step"], True)
+    assert folder.select_checkpoint(run_dir, "latest") == (10240, False)
+    assert folder.select_checkpoint(run_dir, "7680") == (7680, False)
+    with pytest.raises(UserError, match="kept: 7680, 10240"):
+        folder.select_checkpoint(run_dir, "777")
+    env = StandInEnv()
+    params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, top["step"], best=True)
+    assert meta["checkpoint"] == top["step"] and meta["best"]

@@ -18,6 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
+    parser.add_argument("--checkpoint", default="latest", metavar="best|latest|N",
+                        help="which checkpoint: the latest (default), the best evaluation's, or N samples")
     parser.add_argument("--push", action="store_true",
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
@@ -49,7 +51,7 @@ def _run_push(args: argparse.Namespace) -> int:
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    result = push_test_run(args.run_dir, args.seed, args.trials, progress=say)
+    result = push_test_run(args.run_dir, args.seed, args.trials, progress=say, which=args.checkpoint)
     folder.write_json_atomic(args.run_dir / "push.json", result)
     if args.json:
         print(json.dumps(result, indent=2))
@@ -72,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_push(args)
     from mjxmimic.runs.evaluate_run import evaluate_run
 
-    result = evaluate_run(args.run_dir, args.episodes, args.seed)
+    result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0

@@ -2,7 +2,8 @@
 
 One episode on MuJoCo's CPU simulator (as `mjxmimic play` runs it) from the reference state at
 --start, one frame per control step, until the episode ends or --seconds pass; --ghost adds the
-reference motion as a translucent copy of the character; --push FORCE@TIME pushes the pelvis for
+reference motion as a translucent copy of the character (a RUN folder without policy.npz renders
+its best checkpoint, or --checkpoint); --push FORCE@TIME pushes the pelvis for
 0.2 s (the push test's push, a red arrow in the video) to show the recovery. POLICY is an exported file; a RUN folder
 uses RUN/policy.npz, or its latest checkpoint when there is none (that path imports JAX).
 Rendering is offscreen: EGL or OSMesa (mjxmimic.portable.render says which packages); videos need the
@@ -27,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="at most this long (default: until the episode ends, at most env.episode_seconds)")
     parser.add_argument("--width", type=int, default=640, help="video width in pixels (a multiple of 16)")
     parser.add_argument("--height", type=int, default=480, help="video height in pixels (a multiple of 16)")
+    parser.add_argument("--checkpoint", default="best", metavar="best|latest|N",
+                        help="for a RUN folder without policy.npz: which checkpoint (default: the best)")
     parser.add_argument("--push", metavar="FORCE@TIME",
                         help="push the pelvis with FORCE newtons for 0.2 s from TIME seconds into the episode")
     parser.add_argument("--push-direction", choices=["forward", "sideways"], default="forward",
@@ -66,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if args.seconds is not None and args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
     setup_gl()  # before anything imports mujoco, where possible
-    pf = load_policy_file(args.source, export_if_missing=True)
+    pf = load_policy_file(args.source, export_if_missing=True, checkpoint=args.checkpoint)
     clip = None
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source

@@ -25,8 +25,9 @@ The manifest (JSON object):
     reward      kind
     observation size and layout (ordered parts with sizes and the bodies they run over)
     policy      hidden_sizes, activation, output, normalizer, dtype
-    training    run folder, checkpoint (env_steps), samples, train_seconds, and `eval`: the
-                training-side (MJX) evaluation: nr, fall_rate, survival_s, episodes, seed and the
+    training    run folder, checkpoint (env_steps), best (whether it is the run's best-evaluated
+                checkpoint), samples, train_seconds, and `eval`: the training-side (MJX)
+                evaluation of that checkpoint: nr, fall_rate, survival_s, episodes, seed and the
                 start times of its episodes (so CPU playback starts from the same RSI states)
     config      the run's resolved config (mjxmimic.core.config.to_dict); playback rebuilds its
                 environment settings from it (character and clip come from this file instead)

@@ -12,6 +12,8 @@ than the target still lands whole in one file: with [1024, 512] layers the large
 1024 x 512 floats = 2 MiB.
 
 Saves are synchronous (a checkpoint is small) so that a process may exit right after `save`.
+RUN/best/<env_steps>/ holds the checkpoint of the run's best evaluation in the same layout (one
+kept; `save(..., best=True)`), which export, play and render use by default.
 """
 
 from __future__ import annotations
@@ -26,26 +28,34 @@ from brax.training import types as brax_types
 from brax.training.acme import running_statistics
 
 from mjxmimic.core.errors import UserError
-from mjxmimic.runs.folder import checkpoint_dir, require_checkpoint
+from mjxmimic.runs.folder import best_dir, checkpoint_dir, require_checkpoint
 
 TARGET_FILE_BYTES = 8 * 1024 * 1024
 KEEP = 2
 _ARRAY_ITEMS = ("params", "optimizer", "learner")
 
 
-def _manager(run_dir: Path, create: bool = True) -> ocp.CheckpointManager:
-    options = ocp.CheckpointManagerOptions(max_to_keep=KEEP, create=create,
+def _manager(run_dir: Path, create: bool = True, best: bool = False) -> ocp.CheckpointManager:
+    options = ocp.CheckpointManagerOptions(max_to_keep=1 if best else KEEP, create=create,
                                            enable_async_checkpointing=False)
-    return ocp.CheckpointManager(checkpoint_dir(run_dir), options=options,
-                                 item_names=_ARRAY_ITEMS + ("meta",))
+    root = best_dir(run_dir) if best else checkpoint_dir(run_dir)
+    return ocp.CheckpointManager(root, options=options, item_names=_ARRAY_ITEMS + ("meta",))
 
 
-def latest_checkpoint(run_dir: Path) -> int | None:
-    """env_steps of the newest complete checkpoint in RUN/checkpoints, or None."""
-    if not checkpoint_dir(run_dir).is_dir():
+def latest_checkpoint(run_dir: Path, best: bool = False) -> int | None:
+    """env_steps of the newest complete checkpoint in RUN/checkpoints (RUN/best), or None."""
+    if not (best_dir(run_dir) if best else checkpoint_dir(run_dir)).is_dir():
         return None
-    with _manager(run_dir, create=False) as mngr:
+    with _manager(run_dir, create=False, best=best) as mngr:
         return mngr.latest_step()
+
+
+def kept_checkpoints(run_dir: Path) -> list[int]:
+    """env_steps of every complete checkpoint in RUN/checkpoints, oldest first."""
+    if not checkpoint_dir(run_dir).is_dir():
+        return []
+    with _manager(run_dir, create=False) as mngr:
+        return sorted(mngr.all_steps())
 
 
 def _split(ts) -> dict[str, Any]:
@@ -56,15 +66,17 @@ def _split(ts) -> dict[str, Any]:
     }
 
 
-def save(run_dir: Path, ts, *, iterations: int, elapsed_seconds: float, extra: dict | None = None) -> int:
-    """Write a checkpoint of TrainState `ts` named by its env_steps; returns env_steps."""
+def save(run_dir: Path, ts, *, iterations: int, elapsed_seconds: float, extra: dict | None = None,
+         best: bool = False) -> int:
+    """Write a checkpoint of TrainState `ts` named by its env_steps (into RUN/best with `best`);
+    returns env_steps."""
     env_steps = int(ts.env_steps)
     items = jax.device_get(_split(ts))
     meta = {"env_steps": env_steps, "iterations": int(iterations),
             "elapsed_seconds": float(elapsed_seconds), **(extra or {})}
     args = {name: ocp.args.PyTreeSave(items[name], ocdbt_target_data_file_size=TARGET_FILE_BYTES)
             for name in _ARRAY_ITEMS}
-    with _manager(run_dir) as mngr:
+    with _manager(run_dir, best=best) as mngr:
         if env_steps in mngr.all_steps():  # e.g. Ctrl-C right after a periodic save
             mngr.delete(env_steps)
         mngr.save(env_steps, args=ocp.args.Composite(meta=ocp.args.JsonSave(meta), **args), force=True)
@@ -88,18 +100,19 @@ def restore(run_dir: Path, template, step: int | None = None):
     return ts, dict(out["meta"])
 
 
-def _restore_as_numpy(run_dir: Path, step: int, targets: dict[str, Any]) -> dict[str, Any]:
+def _restore_as_numpy(run_dir: Path, step: int, targets: dict[str, Any], best: bool = False) -> dict[str, Any]:
     """The named array items (shaped as `targets`) and meta of checkpoint `step`, restored as numpy
     arrays wherever they were written (a GPU run's checkpoint restores on a CPU)."""
     targets = jax.tree_util.tree_map(np.asarray, targets)
     args = {name: ocp.args.PyTreeRestore(tree, restore_args=jax.tree_util.tree_map(
                 lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree))
             for name, tree in targets.items()}
-    with _manager(run_dir, create=False) as mngr:
+    with _manager(run_dir, create=False, best=best) as mngr:
         return mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore(), **args))
 
 
-def restore_policy(run_dir: Path, networks, observation_size: int, step: int) -> tuple[dict, dict]:
+def restore_policy(run_dir: Path, networks, observation_size: int, step: int,
+                   best: bool = False) -> tuple[dict, dict]:
     """(`mjxmimic.learn.ppo.export_params`-style numpy params, meta with "checkpoint") of checkpoint
     `step`: only the "params" and "learner" items, restored into a template of `networks` (Brax
     PPO networks), so no environment, trainer or optimiser state is built."""
@@ -110,7 +123,7 @@ def restore_policy(run_dir: Path, networks, observation_size: int, step: int) ->
                         jax.ShapeDtypeStruct((observation_size,), np.float32)),
                     "key": key, "env_steps": brax_types.UInt64(hi=0, lo=0)},
     }
-    out = _restore_as_numpy(run_dir, step, targets)
+    out = _restore_as_numpy(run_dir, step, targets, best)
     try:
         normalizer = out["learner"]["normalizer"]
         params = {"normalizer": {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)},
@@ -121,6 +134,7 @@ def restore_policy(run_dir: Path, networks, observation_size: int, step: int) ->
                         f"expected ({err})") from None
     meta = dict(out["meta"] or {})
     meta["checkpoint"] = int(step)
+    meta["best"] = best
     return params, meta
 
 

@@ -13,11 +13,12 @@ from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
 
 
-def load_run_policy(run_dir: Path, env: Any = None) -> tuple[Any, Any, Any, dict[str, Any], int]:
-    """(config, env, deterministic policy fn, checkpoint metadata, checkpoint step) of RUN's latest
-    checkpoint; the env is the run's own unless given."""
+def load_run_policy(run_dir: Path, env: Any = None,
+                    which: str = "latest") -> tuple[Any, Any, Any, dict[str, Any], int]:
+    """(config, env, deterministic policy fn, checkpoint metadata, checkpoint step) of one of RUN's
+    checkpoints (folder.select_checkpoint); the env is the run's own unless given."""
     config = folder.load_config(run_dir)
-    step = folder.require_checkpoint(run_dir)  # before the slow env build
+    step, best = folder.select_checkpoint(run_dir, which)  # before the slow env build
 
     from mjxmimic.learn.ppo import make_networks, make_policy_fn
 
@@ -25,19 +26,19 @@ def load_run_policy(run_dir: Path, env: Any = None) -> tuple[Any, Any, Any, dict
         from mjxmimic.envs.mjx_env import make_env
 
         env = make_env(config)
-    params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, step)
+    params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, step, best)
     networks = make_networks(env.observation_size, env.action_size, config)
     return config, env, make_policy_fn(networks, params, deterministic=True), meta, step
 
 
 def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env: Any = None,
-                 write: bool = True) -> dict[str, Any]:
+                 write: bool = True, which: str = "latest") -> dict[str, Any]:
     """NR of RUN's latest checkpoint, in `env` if given (e.g. other physics settings), else in
     the run's own; seed defaults to run.seed + 1, as in training. `write`: also save it as
     RUN/eval.json."""
     if episodes is not None and episodes < 1:
         raise UserError(f"--episodes {episodes}: must be at least 1")
-    config, env, policy, meta, step = load_run_policy(run_dir, env)
+    config, env, policy, meta, step = load_run_policy(run_dir, env, which)
 
     from mjxmimic.runs.evaluate import evaluate
 

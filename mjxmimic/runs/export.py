@@ -1,4 +1,5 @@
-"""Export from a run folder: its latest checkpoint as one portable policy file.
+"""Export from a run folder: one of its checkpoints (the best evaluation's by default) as one
+portable policy file.
 
 The file format is mjxmimic.portable.policy_file's (JAX-free); this side reads the run (config,
 checkpoint, eval.json through mjxmimic.runs.folder) and imports JAX (orbax) when it does.
@@ -28,11 +29,13 @@ def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.n
     return np.asarray(start_times(jax.random.PRNGKey(seed), episodes, clip_duration), np.float32)
 
 
-def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any,
-                   checkpoint: int) -> dict[str, Any] | None:
-    """The manifest's training.eval from RUN/eval.json (None without one), with the start times of
-    its episodes so that CPU playback starts where the MJX evaluation did."""
-    ev = folder.read_eval(run_dir)
+def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any, checkpoint: int,
+                   best: bool) -> dict[str, Any] | None:
+    """The manifest's training.eval (None without one): the evaluation of the best checkpoint from
+    RUN/best.json, else RUN/eval.json, with the start times of its episodes so that CPU playback
+    starts where the MJX evaluation did."""
+    kept = folder.read_best(run_dir) if best else None
+    ev = dict(kept["eval"], checkpoint=kept["checkpoint"]) if kept else folder.read_eval(run_dir)
     if ev is None:
         return None
     episodes = int(ev.get("episodes", config.run.eval_episodes))
@@ -53,20 +56,22 @@ def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any,
     return out
 
 
-def policy_file_from_run(run_dir: Path) -> PolicyFile:
-    """The portable contents of RUN's latest checkpoint (in memory; imports JAX)."""
+def policy_file_from_run(run_dir: Path, which: str = "best") -> PolicyFile:
+    """The portable contents of one of RUN's checkpoints (folder.select_checkpoint: "best",
+    "latest" or env_steps), in memory; imports JAX."""
     from mjxmimic.motion.clip import load_clip_source
 
     run_dir = Path(run_dir)
     config = folder.load_config(run_dir)
     character = load_character(resolve_xml(config.character.xml))
     clip = load_clip_source(config.clip.name, character)
-    params, meta = folder.load_policy_params(run_dir)
+    step, best = folder.select_checkpoint(run_dir, which)
+    params, meta = folder.load_policy_params(run_dir, step=step, best=best)
 
     training: dict[str, Any] = {"run": str(run_dir.resolve()), "checkpoint": meta["checkpoint"],
-                                "samples": int(meta.get("env_steps", meta["checkpoint"])),
+                                "best": best, "samples": int(meta.get("env_steps", meta["checkpoint"])),
                                 "train_seconds": meta.get("elapsed_seconds")}
-    ev = _training_eval(run_dir, config, clip, meta["checkpoint"])
+    ev = _training_eval(run_dir, config, clip, meta["checkpoint"], best)
     if ev is not None:
         training["eval"] = ev
     pf = policy_file.make_policy_file(config, character, clip, params, training)
@@ -74,10 +79,12 @@ def policy_file_from_run(run_dir: Path) -> PolicyFile:
     return pf
 
 
-def export_run(run_dir: Path, out: Path | None = None, fmt: str = "npz") -> tuple[Path, PolicyFile]:
-    """Write RUN's latest checkpoint as one portable file (default RUN/policy.<fmt>)."""
+def export_run(run_dir: Path, out: Path | None = None, fmt: str = "npz",
+               which: str = "best") -> tuple[Path, PolicyFile]:
+    """Write one of RUN's checkpoints (the best by default) as one portable file (default
+    RUN/policy.<fmt>)."""
     policy_file.check_format(fmt)  # fail before the slow part
-    pf = policy_file_from_run(run_dir)
+    pf = policy_file_from_run(run_dir, which)
     out = Path(out) if out is not None else folder.policy_path(run_dir, fmt)
     policy_file.write(pf, out, fmt)
     pf.path = out

@@ -5,6 +5,8 @@ parts through these names, so the layout is written down once.
     RUN/metrics.jsonl  one line per iteration and per evaluation (mjxmimic.runs.metrics_log)
     RUN/tb/            the same scalars for TensorBoard
     RUN/checkpoints/   orbax checkpoints named by env_steps (mjxmimic.runs.checkpoint)
+    RUN/best/          the checkpoint of the best evaluation so far (NR of the run's reward form)
+    RUN/best.json      that evaluation: {"metric", "value", "checkpoint", "eval"}
     RUN/eval.json      the latest NR evaluation (mjxmimic.runs.evaluate) with the run's summary
     RUN/policy.npz     the exported policy (mjxmimic.portable.policy_file), or policy.onnx
 
@@ -28,6 +30,7 @@ CONFIG = "config.json"
 METRICS = "metrics.jsonl"
 TENSORBOARD = "tb"
 CHECKPOINTS = "checkpoints"
+BEST = "best"
 EVAL = "eval.json"
 POLICY = "policy"  # RUN/policy.<format>
 
@@ -52,6 +55,15 @@ def tensorboard_dir(run_dir: Path) -> Path:
 def checkpoint_dir(run_dir: Path) -> Path:
     """Absolute, as orbax requires."""
     return Path(run_dir).resolve() / CHECKPOINTS
+
+
+def best_dir(run_dir: Path) -> Path:
+    """Absolute, as orbax requires."""
+    return Path(run_dir).resolve() / BEST
+
+
+def best_path(run_dir: Path) -> Path:
+    return Path(run_dir) / f"{BEST}.json"
 
 
 def eval_path(run_dir: Path) -> Path:
@@ -140,8 +152,46 @@ def require_checkpoint(run_dir: Path) -> int:
     return step
 
 
+def read_best(run_dir: Path) -> dict[str, Any] | None:
+    """RUN/best.json, or None when the run has kept no best evaluation yet."""
+    path = best_path(run_dir)
+    if not path.is_file():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+
+
+CHECKPOINT_CHOICES = "best, latest or a number of samples"
+
+
+def select_checkpoint(run_dir: Path, which: str = "best") -> tuple[int, bool]:
+    """(env_steps, whether it is RUN/best's) of the checkpoint that `which` names: "best" (the
+    latest when no best was kept, e.g. a run from before best checkpoints), "latest", or the
+    env_steps of a kept checkpoint. Imports JAX."""
+    from mjxmimic.runs import checkpoint
+
+    latest = require_checkpoint(run_dir)
+    best = checkpoint.latest_checkpoint(run_dir, best=True)
+    if which == "best":
+        return (best, True) if best is not None else (latest, False)
+    if which == "latest":
+        return latest, False
+    if not which.isdigit():
+        raise UserError(f"--checkpoint {which!r}: expected {CHECKPOINT_CHOICES}")
+    step = int(which)
+    if step == best:
+        return step, True
+    kept = checkpoint.kept_checkpoints(run_dir)
+    if step not in kept:
+        raise UserError(f"--checkpoint {step}: not in {run_dir} (kept: {', '.join(map(str, sorted(kept)))}"
+                        f"{'' if best is None else f'; best {best}'})")
+    return step, False
+
+
 def load_policy_params(run_dir: Path, observation_size: int | None = None, action_size: int | None = None,
-                       step: int | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+                       step: int | None = None, best: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
     """(policy params of RUN's latest (or given) checkpoint, laid out as
     `mjxmimic.learn.ppo.export_params` gives them, as numpy; the checkpoint's meta, with
     "checkpoint" = its env_steps).
@@ -157,18 +207,21 @@ def load_policy_params(run_dir: Path, observation_size: int | None = None, actio
 
     if observation_size is None or action_size is None:
         from mjxmimic.core.character import load_character, resolve_xml
+        from mjxmimic.task.goals import GOAL_SIZE
         from mjxmimic.task.observation import observation_size as observation_size_of
 
         character = load_character(resolve_xml(config.character.xml))
-        observation_size = observation_size_of(character.model.nbody, config.env.observations)
+        observation_size = (observation_size_of(character.model.nbody, config.env.observations)
+                            + GOAL_SIZE[config.task.name])
         action_size = character.action_size
     networks = make_networks(observation_size, action_size, config)
-    return checkpoint.restore_policy(run_dir, networks, observation_size, step)
+    return checkpoint.restore_policy(run_dir, networks, observation_size, step, best)
 
 
-def load_policy_file(source: Path, *, export_if_missing: bool = False) -> PolicyFile:
+def load_policy_file(source: Path, *, export_if_missing: bool = False, checkpoint: str = "best") -> PolicyFile:
     """An exported policy from a file (.npz or .onnx) or a run folder: its policy.npz, else, with
-    `export_if_missing`, its latest checkpoint exported in memory (that path imports JAX)."""
+    `export_if_missing`, its `checkpoint` (select_checkpoint) exported in memory (that path
+    imports JAX)."""
     from mjxmimic.portable import policy_file
 
     source = Path(source)
@@ -184,4 +237,4 @@ def load_policy_file(source: Path, *, export_if_missing: bool = False) -> Policy
         raise UserError(f"{source}: neither a policy file nor a run folder with checkpoints")
     from mjxmimic.runs.export import policy_file_from_run
 
-    return policy_file_from_run(source)
+    return policy_file_from_run(source, checkpoint)

@@ -55,10 +55,10 @@ def push_test(env: Any, policy_fn: Callable, seed: int = 0, trials: int = protoc
 
 
 def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol.TRIALS, env: Any = None,
-                  progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """The push test of RUN's latest checkpoint in its own env (or `env`)."""
+                  progress: Callable[[str], None] | None = None, which: str = "latest") -> dict[str, Any]:
+    """The push test of one of RUN's checkpoints (the latest by default) in its own env (or `env`)."""
     from mjxmimic.runs.evaluate_run import load_run_policy
 
-    config, env, policy, _, step = load_run_policy(run_dir, env)
+    config, env, policy, _, step = load_run_policy(run_dir, env, which)
     result = push_test(env, policy, config.run.seed + 1 if seed is None else seed, trials, progress)
     return {"clip": config.clip.name, "checkpoint": step, **result}

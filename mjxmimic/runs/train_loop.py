@@ -2,8 +2,9 @@
 
 What it writes (names from mjxmimic.runs.folder): the resolved config before the first step;
 a metrics line per iteration and per evaluation; a checkpoint every run.checkpoint_every
-samples, at the end, at run.max_seconds and on Ctrl-C; and at the end (done, or the target NR
-reached) eval.json: the final NR evaluation with the run's samples, wall-clock, steady-state
+samples, at the end, at run.max_seconds and on Ctrl-C; a checkpoint into RUN/best at every
+evaluation that beats the run's best so far (NR of its reward form, recorded in best.json, read
+back on resume); and at the end (done, or the target NR reached) eval.json: the final NR evaluation with the run's samples, wall-clock, steady-state
 samples/s and time to skill.
 
 run.max_seconds bounds one call (compilation included); the run stops cleanly with a checkpoint
@@ -122,10 +123,26 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     state = {"last_eval": None, "steady_samples": 0, "steady_seconds": 0.0, "cache_after_first": None,
              "iter_seconds": 0.0, "eval_seconds": 0.0}
 
+    best = folder.read_best(run_dir) if resume else None
+    best_metric = "nr_paper" if config.reward.kind == "paper" else "nr"
+
+    def keep_if_best(result: dict) -> None:
+        """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
+        so that best.json never names a checkpoint that is not there)."""
+        nonlocal best
+        if best is not None and result[best_metric] <= best["value"]:
+            return
+        checkpoint.save(run_dir, ts, iterations=iterations, elapsed_seconds=elapsed(), best=True,
+                        extra={"samples_per_iteration": spi})
+        best = {"metric": best_metric, "value": result[best_metric], "checkpoint": env_steps,
+                "eval": dict(result, seed=eval_seed)}
+        folder.write_json_atomic(folder.best_path(run_dir), best)
+
     def run_eval() -> dict:
         nonlocal last_eval_steps, time_to_skill
         t = time.time()
         result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
+        keep_if_best(result)
         state["eval_seconds"] = time.time() - t
         last_eval_steps = env_steps
         if run_cfg.target_nr > 0 and time_to_skill is None and result["nr"] >= run_cfg.target_nr:
