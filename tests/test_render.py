@@ -124,7 +124,7 @@ def test_bad_output_name_and_size_are_one_line_errors(policy_file, tmp_path):
 def test_push_is_drawn_as_a_red_arrow(character):
     from mjxmimic.motion import library as motion
     from mjxmimic.motion.clip import load_clip_source
-    from mjxmimic.portable.render import Scene
+    from mjxmimic.portable.render import PUSH_RGBA, Scene
 
     lib = motion.build_motion_lib([load_clip_source("slow_walk", character)], character)
     qpos, _ = motion.sample(lib, 0, 0.3)
@@ -132,7 +132,7 @@ def test_push_is_drawn_as_a_red_arrow(character):
     try:
         root = np.array([qpos[0], qpos[1], qpos[2]])
         plain = scene.frame(qpos).astype(int)
-        pushed = scene.frame(qpos, arrow=(root - [0.0, 0.8, 0.0], root)).astype(int)
+        pushed = scene.frame(qpos, arrows=[(root - [0.0, 0.8, 0.0], root, PUSH_RGBA)]).astype(int)
     finally:
         scene.close()
     changed = np.abs(pushed - plain).sum(axis=-1) > 30

@@ -125,3 +125,25 @@ def test_mjx_env_appends_the_goal_and_evaluates_the_task(character):
     assert 0.0 <= out["task_return"] < out["nr"] <= 1.0
     state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.3)
     assert np.isfinite(np.asarray(state.obs)).all()
+
+
+def test_heading_goal_is_drawn_as_a_green_arrow(cpu_env):
+    from mjxmimic.portable.render import GOAL_RGBA, Scene, goal_arrow, setup_gl
+
+    try:
+        setup_gl()
+    except UserError as err:
+        pytest.skip(f"no headless OpenGL: {err}")
+    cpu_env.reset_at(0.3, event_seed=0.4)
+    tail, head, rgba = goal_arrow(cpu_env)
+    yaw, speed = goals.heading_goal(HEADING.task, cpu_env.spec.lib, 0, 0.0, 0.4, np)
+    np.testing.assert_allclose(head - tail, [speed * math.cos(yaw), speed * math.sin(yaw), 0.0], atol=1e-6)
+    scene = Scene(cpu_env.character.xml_path, cpu_env.character.nq, ghost=False, width=160, height=128)
+    try:
+        plain = scene.frame(cpu_env.data.qpos).astype(int)
+        drawn = scene.frame(cpu_env.data.qpos, arrows=[(tail, head, rgba)]).astype(int)
+    finally:
+        scene.close()
+    changed = np.abs(drawn - plain).sum(axis=-1) > 30
+    assert changed.sum() > 20 and np.mean(drawn[changed][:, 1] > drawn[changed][:, 0] + 30) > 0.5  # green
+    assert rgba == GOAL_RGBA

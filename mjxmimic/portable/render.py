@@ -28,6 +28,7 @@ from mjxmimic.core.errors import UserError
 GHOST_PREFIX = "ghost/"
 GHOST_RGBA = (1.0, 0.62, 0.25, 0.3)
 PUSH_RGBA = (0.9, 0.1, 0.1, 1.0)
+GOAL_RGBA = (0.1, 0.75, 0.2, 1.0)
 PUSH_ARROW_M_PER_N = 1.0 / 500.0  # arrow length per newton of push
 EGL_VENDOR_DIRS = ("/usr/share/glvnd/egl_vendor.d", "/etc/glvnd/egl_vendor.d")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
@@ -147,9 +148,10 @@ class Scene:
         self.camera.elevation = elevation
         self._lookat: np.ndarray | None = None
 
-    def frame(self, qpos: Any, ghost_qpos: Any | None = None, arrow: tuple[Any, Any] | None = None) -> np.ndarray:
-        """(height, width, 3) uint8 image of the pose(s); `arrow` (tail, head) in world
-        coordinates draws a red arrow (a push)."""
+    def frame(self, qpos: Any, ghost_qpos: Any | None = None,
+              arrows: Iterable[tuple[Any, Any, Any]] = ()) -> np.ndarray:
+        """(height, width, 3) uint8 image of the pose(s), with `arrows` (tail, head, rgba) in world
+        coordinates (a push, a goal)."""
         import mujoco
 
         d = self.data
@@ -163,12 +165,14 @@ class Scene:
         self.camera.lookat[:] = self._lookat
         self.renderer.update_scene(d, camera=self.camera)
         scene = self.renderer.scene
-        if arrow is not None and scene.ngeom < scene.maxgeom:
+        for tail, head, rgba in arrows:
+            if scene.ngeom >= scene.maxgeom:
+                break
             geom = scene.geoms[scene.ngeom]
             mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
-                                np.array(PUSH_RGBA, np.float32))
-            mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.04, np.asarray(arrow[0], np.float64),
-                                 np.asarray(arrow[1], np.float64))
+                                np.array(rgba, np.float32))
+            mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.04, np.asarray(tail, np.float64),
+                                 np.asarray(head, np.float64))
             scene.ngeom += 1
         return self.renderer.render()
 
@@ -208,6 +212,16 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
     return n
 
 
+def goal_arrow(env: Any) -> tuple[Any, Any, Any]:
+    """The heading task's goal as a green arrow on the ground from under the character: the
+    commanded direction, one metre per m/s of commanded speed."""
+    from mjxmimic.envs import step as step_lib
+
+    yaw, speed = step_lib.goal(env.spec, env.motion, np)
+    tail = np.array([env.data.qpos[0], env.data.qpos[1], 0.05])
+    return tail, tail + float(speed) * np.array([np.cos(yaw), np.sin(yaw), 0.0]), GOAL_RGBA
+
+
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
                   seconds: float | None = None, width: int = 640, height: int = 480,
                   on_frame: Callable[[int], Any] | None = None,
@@ -232,19 +246,21 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         ref, _ = env.reference(env.time)
         yield scene.frame(env.data.qpos, ref)
         for k in range(limit):
-            force, arrow = None, None
+            force, arrows = None, []
             if push is not None:
                 newtons, at, turn = push
                 active = float(at - 1e-6 <= k * env.control_dt < at + push_protocol.PUSH_S - 1e-6)
                 force = push_protocol.wrench(env.data.qpos, newtons, turn, active, env.model.nbody, np)
                 if active:
                     head = env.data.xipos[ROOT_BODY].copy()
-                    arrow = (head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head)
+                    arrows.append((head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head, PUSH_RGBA))
+            if env.config.task.name:
+                arrows.append(goal_arrow(env))
             s = env.step(policy(obs), external_force=force)
             info["steps"] += 1
             info["reward"] += s.reward
             ref, _ = env.reference(env.time)
-            yield scene.frame(env.data.qpos, ref, arrow)
+            yield scene.frame(env.data.qpos, ref, arrows)
             if on_frame is not None:
                 on_frame(info["steps"])
             if s.done:
