@@ -95,7 +95,8 @@ def test_cpu_evaluation_reports_task_metrics(cpu_env):
 def test_success_counts_speed_within_tolerance_and_no_fall():
     acc = {"task_reward": np.array([10.0, 10.0, 10.0]), "speed_along": np.array([9.0, 5.0, 10.0]),
            "speed": np.array([10.0, 10.0, 10.0])}
-    out = goals.metrics_summarize(acc, np.array([20, 20, 20]), np.array([False, False, True]))
+    acc = {"reward/task": acc["task_reward"], "task/speed_along": acc["speed_along"], "task/speed": acc["speed"]}
+    out = goals.metrics_summarize("heading", acc, np.array([20, 20, 20]), np.array([False, False, True]))
     assert out["success_rate"] == pytest.approx(1 / 3) and out["task_return"] == pytest.approx(0.5)
     assert out["speed_ratio"] == pytest.approx(0.8)
 
@@ -107,7 +108,8 @@ def test_task_config_errors():
         make_config("cpu", {"task.resample_s": 0})
 
 
-def test_mjx_env_appends_the_goal_and_evaluates_the_task(character):
+@pytest.mark.parametrize("task, size", [("heading", 3), ("strike", 4)])
+def test_mjx_env_appends_the_goal_and_evaluates_the_task(character, task, size):
     import jax
     import jax.numpy as jnp
 
@@ -115,13 +117,13 @@ def test_mjx_env_appends_the_goal_and_evaluates_the_task(character):
     from mjxmimic.motion.clip import load_clip_source
     from mjxmimic.runs.evaluate import evaluate
 
-    config = make_config("cpu", {"task.name": "heading", "env.action_mode": "residual", "physics.backend": "jax",
+    config = make_config("cpu", {"task.name": task, "env.action_mode": "residual", "physics.backend": "jax",
                                  "run.eval_episodes": 2})
     env = ImitationEnv(config, character, [load_clip_source("slow_walk", character)])
     plain = make_config("cpu", {"env.action_mode": "residual"})
-    assert env.observation_size == ImitationEnv(plain, character, env.clips).observation_size + 3
+    assert env.observation_size == ImitationEnv(plain, character, env.clips).observation_size + size
     out = evaluate(env, lambda obs, key: jnp.zeros(obs.shape[:-1] + (env.action_size,)), config, seed=0)
-    assert {"task_return", "speed_ratio", "success_rate", "nr", "nr_paper"} <= set(out)
+    assert {"task_return", "success_rate", "nr", "nr_paper"} <= set(out)
     assert 0.0 <= out["task_return"] < out["nr"] <= 1.0
     state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.3)
     assert np.isfinite(np.asarray(state.obs)).all()
@@ -147,3 +149,62 @@ def test_heading_goal_is_drawn_as_a_green_arrow(cpu_env):
     changed = np.abs(drawn - plain).sum(axis=-1) > 30
     assert changed.sum() > 20 and np.mean(drawn[changed][:, 1] > drawn[changed][:, 0] + 30) > 0.5  # green
     assert rgba == GOAL_RGBA
+
+
+STRIKE = make_config("cpu", {"task.name": "strike", "env.action_mode": "residual", "task.target_min_m": 0.6,
+                             "task.target_max_m": 0.9})
+
+
+@pytest.fixture(scope="module")
+def strike_env(character):
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    return CpuEnv(STRIKE, character, load_clip_source("slow_walk", character))
+
+
+def test_strike_target_is_placed_around_the_character(strike_env):
+    distances, angles = [], []
+    for seed in np.linspace(0, 1, 32, endpoint=False):
+        obs = strike_env.reset_at(0.3, event_seed=seed)
+        target = strike_env.motion.goal
+        root = strike_env.data.qpos[:2]
+        distances.append(np.hypot(*(target[:2] - root)))
+        angles.append(math.atan2(*(target[1::-1] - root[::-1])))
+        assert target[2] == pytest.approx(1.2) and target[3] == 0.0
+        assert obs.shape == (strike_env.spec.observation_size,) and obs[-1] == 0.0  # not hit yet
+        assert np.linalg.norm(obs[-4:-2]) == pytest.approx(distances[-1], abs=0.05)  # heading frame, from the root
+    assert 0.6 - 1e-4 <= min(distances) and max(distances) <= 0.9 + 1e-4
+    assert np.histogram(angles, bins=4, range=(-math.pi, math.pi))[0].min() >= 4  # all around
+
+
+def test_a_hit_pays_one_and_stays_recorded(strike_env):
+    strike_env.reset_at(0.3, event_seed=0.2)
+    zero = np.zeros(strike_env.character.action_size)
+    far = strike_env.step(zero).metrics
+    assert far["task/hit"] == 0.0 and far["reward/task"] == pytest.approx(math.exp(-4 * far["task/distance"] ** 2))
+    # put the target on the striking foot: the next step hits
+    foot = strike_env.spec.task_body
+    goal = strike_env.motion.goal.copy()
+    goal[:3] = strike_env.data.xipos[foot]
+    strike_env.motion = strike_env.motion._replace(goal=goal)
+    hit = strike_env.step(zero).metrics
+    assert hit["task/hit"] == 1.0 and hit["reward/task"] == 1.0
+    # moved away again, the target stays hit for the rest of the episode
+    goal = strike_env.motion.goal.copy()
+    goal[:3] += [5.0, 0.0, 0.0]
+    strike_env.motion = strike_env.motion._replace(goal=goal)
+    after = strike_env.step(zero).metrics
+    assert after["task/hit"] == 1.0 and after["reward/task"] == 1.0 and after["task/distance"] > 4.0
+
+
+def test_strike_success_is_a_hit_and_bad_body_is_one_line(character):
+    acc = {"reward/task": np.array([3.0, 1.0]), "task/hit": np.array([2.0, 0.0]), "task/distance": np.ones(2)}
+    out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
+    assert out["success_rate"] == 0.5 and out["task_return"] == pytest.approx(0.2)
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    bad = make_config("cpu", {"task.name": "strike", "task.strike_body": "tail"})
+    with pytest.raises(UserError, match="no body 'tail'"):
+        CpuEnv(bad, character, load_clip_source("slow_walk", character))

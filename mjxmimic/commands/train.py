@@ -24,9 +24,9 @@ from mjxmimic.runs import folder
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip", help="clip NAME or PATH (default: the config's clip)")
-    parser.add_argument("--task", choices=["heading"],
+    parser.add_argument("--task", choices=["heading", "strike"],
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
-                             "direction at a commanded speed")
+                             "direction at a commanded speed; strike = hit a target (the spinkick)")
     parser.add_argument("--preset", default=None, choices=sorted(config_lib.PRESETS),
                         help="config preset (default: gpu)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",

@@ -73,11 +73,16 @@ class RewardConfig:
 
 @dataclasses.dataclass(frozen=True)
 class TaskConfig:
-    name: str = ""  # "" (imitation only) or "heading" (mjxmimic.task.goals)
+    name: str = ""  # "" (imitation only), "heading" or "strike" (mjxmimic.task.goals)
     imitation_weight: float = 0.7  # r = imitation_weight * r_imitation + task_weight * r_task
     task_weight: float = 0.3
     speed: float = 0.0  # heading: commanded speed (m/s); 0 = the clip's own average speed
     resample_s: float = 5.0  # heading: a new direction every this many seconds of the episode
+    strike_body: str = "right_ankle"  # strike: the body whose centre must reach the target
+    target_min_m: float = 0.5  # strike: the target's horizontal distance from the root at reset,
+    target_max_m: float = 1.0  # uniform in [min, max], in any direction
+    target_height_m: float = 1.2  # strike: the target centre's height
+    target_radius_m: float = 0.2  # strike: a hit is the striking body's centre within this radius
 
 
 @dataclasses.dataclass(frozen=True)
@@ -271,7 +276,10 @@ def validate(config: Config) -> None:
         (env.push_duration_s > 0, "env.push_duration_s", "must be positive"),
         (env.push_interval_s > env.push_duration_s, "env.push_interval_s", "must be longer than env.push_duration_s"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
-        (config.task.name in ("", "heading"), "task.name", "must be '' (none) or 'heading'"),
+        (config.task.name in ("", "heading", "strike"), "task.name", "must be '' (none), 'heading' or 'strike'"),
+        (0 <= config.task.target_min_m <= config.task.target_max_m, "task.target_min_m",
+         "must be >= 0 and at most task.target_max_m"),
+        (config.task.target_radius_m > 0, "task.target_radius_m", "must be positive"),
         (config.task.imitation_weight >= 0 and config.task.task_weight >= 0, "task.imitation_weight",
          "task weights must be >= 0"),
         (config.task.speed >= 0, "task.speed", "must be >= 0 (0: the clip's own speed)"),

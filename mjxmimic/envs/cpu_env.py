@@ -56,7 +56,8 @@ class CpuEnv:
         self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
         self.terminations = termination.evaluation_list(env.early_termination)
-        self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0)
+        self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0,
+                                      goal=np.zeros(4, np.float32))
 
     @property
     def time(self) -> float:
@@ -76,7 +77,8 @@ class CpuEnv:
         self.physics.init(qpos, qvel)
         self.motion = step_lib.Motion(clip=0, time=np.float32(t), steps=int(steps),
                                       root_offset=np.array(root_offset, dtype=np.float64),
-                                      event_seed=float(event_seed))
+                                      event_seed=float(event_seed),
+                                      goal=step_lib.initial_goal(self.spec, qpos, event_seed, np))
         kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
         return step_lib.observe(self.spec, self.physics, kin, self.motion)
 
@@ -111,7 +113,7 @@ class CpuEnv:
         obs = self.reset_at(t0, event_seed)
         horizon = self.eval_horizon(t0)
         acc = nr_rule.start((), np)
-        task_acc = goals.metrics_start((), np) if self.config.task.name else None
+        task_acc = goals.metrics_start(self.config.task.name, (), np) if self.config.task.name else None
         for k in range(horizon):
             s = self.step(policy(obs), grade_paper=True)
             m = s.metrics

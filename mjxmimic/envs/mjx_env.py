@@ -20,7 +20,7 @@ from mjxmimic.core.config import Config
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.mjx import MjxPhysics, resolve_backend
-from mjxmimic.task import termination
+from mjxmimic.task import goals, termination
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
@@ -94,8 +94,7 @@ class ImitationEnv(Env):
     def metric_keys(self) -> list[str]:
         keys = ["reward", "reward/imitation", "fell", "lost_track", "physics/reset_nan", "error/pose",
                 "error/end_effector"]
-        if self.config.task.name:
-            keys += ["reward/task", "task/speed_along", "task/speed"]
+        keys += list(goals.METRICS[self.config.task.name])
         return keys + [f"reward/{t.name}" for t in self.spec.rewards]
 
     def step(self, state: State, action: jax.Array) -> State:

@@ -38,6 +38,7 @@ class Motion(NamedTuple):
     steps: Any  # control steps since the reset
     root_offset: Any  # (2,) horizontal shift of the reference root (reward.sync_root_position)
     event_seed: Any  # in [0, 1), drawn at reset: what varies events (push directions) between episodes
+    goal: Any  # (4,) a task's episode state (strike: target x, y, z and whether it was hit); else zeros
 
 
 class Spec(NamedTuple):
@@ -54,6 +55,7 @@ class Spec(NamedTuple):
     max_steps: int
     observation_size: int
     action_size: int
+    task_body: int  # the strike task's striking body (-1 without one)
     config: Config
 
 
@@ -107,12 +109,24 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         observation_size=(obs_terms.observation_size(scene.model.nbody, env.observations)
                           + goals.GOAL_SIZE[config.task.name]),
         action_size=character.action_size,
+        task_body=_task_body(config, scene),
         config=config,
     )
 
 
+def _task_body(config: Config, scene: Scene) -> int:
+    if config.task.name != "strike":
+        return -1
+    import mujoco
+
+    body = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, config.task.strike_body)
+    if body < 0:
+        raise UserError(f"config key 'task.strike_body': the character has no body {config.task.strike_body!r}")
+    return body
+
+
 def goal(spec: Spec, motion: Motion, xp: Any) -> tuple[Any, Any]:
-    """The task's goal in force for the coming step: (direction yaw, speed) of the heading task."""
+    """The heading task's goal in force for the coming step: (direction yaw, speed)."""
     return goals.heading_goal(spec.config.task, spec.lib, motion.clip, motion.steps * spec.control_dt,
                               motion.event_seed, xp)
 
@@ -121,9 +135,12 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
     """The observation terms, then the goal when there is a task (DEEPMIMIC.md)."""
     xp = physics.xp
     obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp)
-    if not spec.config.task.name:
-        return obs
-    return xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
+    task = spec.config.task.name
+    if task == "heading":
+        return xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
+    if task == "strike":
+        return xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp)])
+    return obs
 
 
 def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0) -> tuple[Any, Motion, Any]:
@@ -132,9 +149,17 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     t = xp.asarray(t, dtype=xp.float32)
     qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
     state = physics.init(qpos, qvel)
+    event_seed = xp.asarray(event_seed, xp.float32)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
-                    event_seed=xp.asarray(event_seed, xp.float32))
+                    event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp))
     return state, motion, observe(spec, physics, physics.kinematics(qpos, qvel), motion)
+
+
+def initial_goal(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
+    """Motion.goal at reset: the strike target around the character, else zeros."""
+    if spec.config.task.name == "strike":
+        return goals.place_target(spec.config.task, qpos, event_seed, xp)
+    return xp.zeros(4, xp.float32)
 
 
 def start_time_range(spec: Spec, clip: Any, xp: Any) -> Any:
@@ -185,12 +210,17 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         ref = physics.kinematics(motion_lib.shift_root(ref_qpos, offset, xp), ref_qvel)
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
     metrics["reward/imitation"] = r
-    if task.name:
+    goal_state = motion.goal
+    if task.name == "heading":
         yaw, speed = goal(spec, motion, xp)
         along = goals.speed_along(sim, spec.layout.body_mass, yaw, xp)
         r_task = goals.heading_reward(along, speed, xp)
-        r = task.imitation_weight * r + task.task_weight * r_task
         metrics.update({"reward/task": r_task, "task/speed_along": along, "task/speed": speed})
+    elif task.name == "strike":
+        r_task, goal_state, distance = goals.strike(task, sim, spec.task_body, motion.goal, xp)
+        metrics.update({"reward/task": r_task, "task/hit": goal_state[3], "task/distance": distance})
+    if task.name:
+        r = task.imitation_weight * r + task.task_weight * metrics["reward/task"]
 
     outcome = termination.Outcome(sim=sim, ref=ref, contacts=sub.contacts, fall_mask=spec.fall_masks[clip],
                                   diverged=sub.diverged, max_joint_velocity=env.max_joint_velocity,
@@ -207,7 +237,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     r = xp.where(failed, 0.0, r)
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
-    motion = motion._replace(time=t, steps=steps, root_offset=offset)
+    motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
     obs = observe(spec, physics, sim, motion)
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}

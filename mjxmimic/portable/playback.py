@@ -38,7 +38,7 @@ def evaluate(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], starts: An
     out = summarize(episodes, env.control_dt)
     if episodes and "task" in episodes[0]:
         task = {k: np.array([e["task"][k] for e in episodes]) for k in episodes[0]["task"]}
-        out.update(goals.metrics_summarize(task, np.array([e["horizon"] for e in episodes]),
+        out.update(goals.metrics_summarize(env.config.task.name, task, np.array([e["horizon"] for e in episodes]),
                                            np.array([e["failed"] for e in episodes])))
     steps = int(sum(e["steps"] for e in episodes))
     out.update(control_steps=steps, eval_seconds=wall, steps_per_s=steps / wall if wall > 0 else None,

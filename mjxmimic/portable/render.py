@@ -213,10 +213,14 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
 
 
 def goal_arrow(env: Any) -> tuple[Any, Any, Any]:
-    """The heading task's goal as a green arrow on the ground from under the character: the
-    commanded direction, one metre per m/s of commanded speed."""
+    """A task's goal as a green arrow. heading: on the ground from under the character, the
+    commanded direction, one metre per m/s of commanded speed; strike: pointing down at the
+    target's centre, red once it has been hit."""
     from mjxmimic.envs import step as step_lib
 
+    if env.config.task.name == "strike":
+        target = np.asarray(env.motion.goal[:3], np.float64)
+        return target + [0.0, 0.0, 0.4], target, PUSH_RGBA if env.motion.goal[3] > 0 else GOAL_RGBA
     yaw, speed = step_lib.goal(env.spec, env.motion, np)
     tail = np.array([env.data.qpos[0], env.data.qpos[1], 0.05])
     return tail, tail + float(speed) * np.array([np.cos(yaw), np.sin(yaw), 0.0]), GOAL_RGBA

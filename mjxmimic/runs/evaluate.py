@@ -38,14 +38,14 @@ def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: 
     horizon = jax.vmap(lambda t: env.eval_horizon(t, clip))(t0)
     transition = jax.vmap(lambda s, a: env.transition(s, a, evaluation=True))
 
-    has_task = "reward/task" in getattr(env, "metric_keys", ())
+    task = task_of(env)
 
     def body(carry, k):
         state, acc, task_acc = carry
         action = policy_fn(state.obs, jax.random.fold_in(k_policy, k))
         nxt = transition(state, action)
         m = nxt.metrics
-        if has_task:
+        if task:
             task_acc = goals.metrics_add(task_acc, acc["alive"] & (k < horizon), m, jnp)
         acc = nr_rule.add_step(acc, k, horizon, m["reward/imitation"], m["reward_paper"], nxt.info["failed"] > 0,
                                nxt.info["clip_end"] > 0, m["error/pose"], m["error/end_effector"], jnp)
@@ -53,21 +53,26 @@ def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: 
         state = jax.vmap(env.select)(acc["alive"], nxt, state)
         return (state, acc, task_acc), None
 
-    start = (state, nr_rule.start((num_episodes,), jnp), goals.metrics_start((num_episodes,), jnp))
+    start = (state, nr_rule.start((num_episodes,), jnp), goals.metrics_start(task, (num_episodes,), jnp))
     (_, acc, task_acc), _ = jax.lax.scan(body, start, jnp.arange(env.max_eval_horizon))
     acc["horizon"] = horizon
     acc["start_time"] = t0
-    if has_task:
+    if task:
         acc["task"] = task_acc
     return acc
 
 
-def summarize(acc: dict, control_dt: float) -> dict:
-    """Per-episode sums (host arrays) -> the EVALUATION.md numbers."""
+def task_of(env) -> str:
+    """The env's task name ("" for none, and for envs without tasks such as the test stand-in)."""
+    return env.config.task.name if "reward/task" in getattr(env, "metric_keys", ()) else ""
+
+
+def summarize(acc: dict, control_dt: float, task: str = "") -> dict:
+    """Per-episode sums (host arrays) -> the EVALUATION.md numbers (and the task's)."""
     sums = {k: v for k, v in acc.items() if k in nr_rule.FIELDS}
     result = nr_rule.summarize(sums, acc["horizon"], control_dt)
-    if "task" in acc:
-        result.update(goals.metrics_summarize(acc["task"], acc["horizon"], acc["failed"]))
+    if task:
+        result.update(goals.metrics_summarize(task, acc["task"], acc["horizon"], acc["failed"]))
     return result
 
 
@@ -88,7 +93,7 @@ def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episode
     start = time.time()
     acc = jax.jit(lambda key: _rollout(env, policy_fn, key, n))(jax.random.PRNGKey(seed))
     acc = jax.device_get(acc)
-    return _finish(summarize(acc, env.control_dt), time.time() - start, samples, train_seconds)
+    return _finish(summarize(acc, env.control_dt, task_of(env)), time.time() - start, samples, train_seconds)
 
 
 class Evaluator:
@@ -115,8 +120,9 @@ class Evaluator:
                  train_seconds: float | None = None) -> dict:
         start = time.time()
         key = jax.random.PRNGKey(seed)
-        result = summarize(jax.device_get(self._run(params, key, True)), self.env.control_dt)
+        task = task_of(self.env)
+        result = summarize(jax.device_get(self._run(params, key, True)), self.env.control_dt, task)
         if self.stochastic:
-            noisy = summarize(jax.device_get(self._run(params, key, False)), self.env.control_dt)
+            noisy = summarize(jax.device_get(self._run(params, key, False)), self.env.control_dt, task)
             result.update({f"stochastic_{k}": noisy[k] for k in self.STOCHASTIC_FIELDS})
         return _finish(result, time.time() - start, samples, train_seconds)
