@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import io
 import sys
 
 from mjxmimic.core.errors import UserError
@@ -40,13 +41,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+WARP_NOTICES = ("Failed to import warp:", "Failed to import mujoco_warp:")
+
+
+def _import_mjx_quietly() -> None:
+    """mujoco.mjx prints "Failed to import warp: ..." on stdout whenever the optional warp package
+    is missing (every CPU machine): drop those lines; pass anything else it prints to stderr, so
+    that `--json` output stays JSON."""
+    captured = io.StringIO()
+    with contextlib.redirect_stdout(captured):
+        importlib.import_module("mujoco.mjx")
+    for line in captured.getvalue().splitlines():
+        if not line.startswith(WARP_NOTICES):
+            print(line, file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command in USES_MJX:
-        # mujoco.mjx prints "Failed to import warp: ..." on stdout when the optional warp package
-        # is missing; import it here with stdout on stderr so that `--json` output stays JSON.
-        with contextlib.redirect_stdout(sys.stderr):
-            importlib.import_module("mujoco.mjx")
+        _import_mjx_quietly()
     module = importlib.import_module(COMMANDS[args.command][0])
     try:
         return int(module.run(args) or 0)

@@ -134,3 +134,17 @@ def test_eval_cli_folder_without_checkpoint(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and "no checkpoint" in err
+
+
+def test_missing_warp_notice_never_reaches_the_terminal(tmp_path):
+    """mujoco.mjx prints a notice when warp-lang is absent (blocked here to be sure it is)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['warp'] = None; from mjxmimic.cli import main; "
+            "sys.exit(main(sys.argv[1:]))")
+    result = subprocess.run([sys.executable, "-c", code, "eval", str(tmp_path / "missing")],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert "Failed to import" not in result.stdout + result.stderr
+    assert result.stderr.strip().splitlines() == [f"mjxmimic eval: error: {tmp_path / 'missing'}: run folder not found"]
