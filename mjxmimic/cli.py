@@ -28,7 +28,10 @@ USES_MJX = ("train", "eval", "export", "bench")  # the others stay JAX-free wher
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from mjxmimic import __version__
+
     parser = argparse.ArgumentParser(prog="mjxmimic", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"mjxmimic {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (module_name, help_text) in COMMANDS.items():
         try:

@@ -285,3 +285,22 @@ def test_the_best_evaluation_keeps_its_checkpoint(tmp_path):
     env = StandInEnv()
     params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, top["step"], best=True)
     assert meta["checkpoint"] == top["step"] and meta["best"]
+
+
+def test_without_a_preset_the_device_chooses_and_says_so(capsys, tmp_path):
+    from mjxmimic.commands.train import add_arguments
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    config, _, _ = resolve_run(parser.parse_args(["--out", str(tmp_path / "r")]))
+    expected = "gpu" if jax.default_backend() == "gpu" else "cpu"
+    assert config == config_lib.make_config(expected)
+    assert f"using '{expected}'" in capsys.readouterr().err
+
+
+def test_version(capsys):
+    from mjxmimic import __version__
+
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["--version"])
+    assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"mjxmimic {__version__}"

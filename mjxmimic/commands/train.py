@@ -28,13 +28,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
                              "direction at a commanded speed; strike = hit a target (the spinkick)")
     parser.add_argument("--preset", default=None, choices=sorted(config_lib.PRESETS),
-                        help="config preset (default: gpu)")
+                        help="config preset (default: gpu where JAX sees a GPU, else cpu)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override a config value (repeatable), e.g. --set ppo.learning_rate=3e-4")
     parser.add_argument("--out", type=Path, help="run folder (exactly this path)")
     parser.add_argument("--name", help="run name: the folder runs/NAME")
     parser.add_argument("--seed", type=int, help="PRNG seed (run.seed)")
     parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
+
+
+def default_preset() -> str:
+    """The preset for a run that names none: `gpu` where JAX's default device is a GPU, else
+    `cpu` (the 8192-env preset would crawl on a CPU); says which on stderr."""
+    import jax
+
+    preset = "gpu" if jax.default_backend() == "gpu" else "cpu"
+    found = "a GPU" if preset == "gpu" else "no GPU"
+    print(f"mjxmimic train: no --preset given: using '{preset}' ({found} found; --preset cpu|gpu to choose)",
+          file=sys.stderr)
+    return preset
 
 
 def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool]:
@@ -63,7 +75,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         overrides["task.name"] = args.task
     if args.seed is not None:
         overrides["run.seed"] = str(args.seed)
-    config = config_lib.make_config(args.preset or "gpu", overrides)
+    config = config_lib.make_config(args.preset or default_preset(), overrides)
     if args.out is not None:
         run_dir = args.out
     elif args.name is not None:
