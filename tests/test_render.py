@@ -154,3 +154,13 @@ def test_render_push_knocks_down_and_bad_push_is_one_line(policy_file, tmp_path)
     result = run_cli("render", policy_file, "--out", tmp_path / "bad.mp4", "--push", "300N")
     assert result.returncode == 2 and "expected FORCE@TIME" in result.stderr
     assert not (tmp_path / "bad.mp4").exists()
+
+
+def test_png_out_writes_a_frame_strip(policy_file, tmp_path):
+    out = tmp_path / "strip.png"
+    result = run_cli("render", policy_file, "--out", out, "--seconds", "1", "--width", "160", "--height", "128")
+    assert result.returncode == 0, result.stderr
+    strip = imageio.imread(str(out))
+    assert strip.shape[0] == 128 and strip.shape[1] == 8 * 160  # 8 frames side by side
+    first, last = strip[:, :160].astype(int), strip[:, -160:].astype(int)
+    assert np.abs(first - last).mean() > 0.5  # different moments

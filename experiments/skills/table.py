@@ -1,6 +1,8 @@
 """The skill-suite table: for each run folder given (default: the folders beside this script), its
 paper-form NR beside DeepMimic's Table 2, its released-form NR, the samples and seconds to reach
-the paper's NR (or its best within the run), the final evaluation and its fall rate.
+the paper's NR (or its best within the run), the final evaluation and its fall rate; then the
+frame strip of each run that has one (RUN/strip.png, from `mjxmimic render RUN/policy.npz --out
+RUN/strip.png --ghost --seconds CLIP_SECONDS`).
 
     python experiments/skills/table.py [RUN ...] > table.md
 """
@@ -45,6 +47,9 @@ def main(paths: list[str]) -> None:
     print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|")
     for run in runs:
         print(row(run))
+    for run in runs:
+        if (run / "strip.png").is_file():
+            print(f"\n{run.name} (the policy in grey, its reference as an orange ghost):\n\n![{run.name}]({run.name}/strip.png)")
 
 
 if __name__ == "__main__":

@@ -18,7 +18,8 @@ from pathlib import Path
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("source", type=Path, metavar="RUN|POLICY", help="run folder or exported policy file")
-    parser.add_argument("--out", type=Path, required=True, metavar="FILE.mp4", help="video file to write")
+    parser.add_argument("--out", type=Path, required=True, metavar="FILE.mp4",
+                        help="video file to write (.png: a strip of 8 frames spread over the episode)")
     parser.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=False,
                         help="show the reference motion as a translucent ghost")
     parser.add_argument("--clip", metavar="NAME|PATH", help="another clip (default: the policy's own)")

@@ -34,6 +34,7 @@ EGL_VENDOR_DIRS = ("/usr/share/glvnd/egl_vendor.d", "/etc/glvnd/egl_vendor.d")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
 HEADLESS = ("egl", "osmesa")
 VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".mkv")
+STRIP_FRAMES = 8
 
 
 def _has_display() -> bool:
@@ -181,9 +182,32 @@ class Scene:
 
 
 def check_video_path(path: Path) -> None:
-    """Fail early, before anything is rendered, on an --out that is not a video file name."""
-    if Path(path).suffix.lower() not in VIDEO_SUFFIXES:
-        raise UserError(f"--out {path}: expected a video file name ending in .mp4")
+    """Fail early, before anything is rendered, on an --out that is neither a video file name
+    nor a .png (a frame strip)."""
+    if Path(path).suffix.lower() not in VIDEO_SUFFIXES + (".png",):
+        raise UserError(f"--out {path}: expected a video file name ending in .mp4 (or .png for a frame strip)")
+
+
+def write_strip(frames: Iterable[np.ndarray], path: Path, count: int = STRIP_FRAMES) -> int:
+    """`count` frames spread evenly over the episode, side by side in one PNG; returns the number
+    of frames rendered. Nothing half-written."""
+    images = list(frames)
+    if not images:
+        raise UserError(f"--out {path}: no frames to write")
+    picks = np.unique(np.linspace(0, len(images) - 1, min(count, len(images))).round().astype(int))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.stem + ".part" + path.suffix)
+    _imageio().imwrite(str(tmp), np.concatenate([images[i] for i in picks], axis=1))
+    tmp.replace(path)
+    return len(images)
+
+
+def write_frames(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
+    """A video, or for a .png a frame strip."""
+    if Path(path).suffix.lower() == ".png":
+        return write_strip(frames, path)
+    return write_video(frames, path, fps)
 
 
 def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
@@ -273,7 +297,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
             obs = s.obs
 
     try:
-        n = write_video(frames(), out, fps=1.0 / env.control_dt)
+        n = write_frames(frames(), out, fps=1.0 / env.control_dt)
     finally:
         scene.close()
     return {"out": str(out), "frames": n, "fps": 1.0 / env.control_dt, "seconds": n * env.control_dt,
@@ -299,7 +323,7 @@ def render_clip(character, clip: Any, out: Path, *, seconds: float | None = None
             yield scene.frame(qpos)
 
     try:
-        count = write_video(frames(), out, fps=fps)
+        count = write_frames(frames(), out, fps=fps)
     finally:
         scene.close()
     return {"out": str(out), "frames": count, "fps": fps, "seconds": (count - 1) / fps, "clip": clip.name,
