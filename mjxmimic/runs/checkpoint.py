@@ -18,6 +18,7 @@ kept; `save(..., best=True)`), which export, play and render use by default.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -86,9 +87,24 @@ def save(run_dir: Path, ts, *, iterations: int, elapsed_seconds: float, extra: d
 
 def restore(run_dir: Path, template, step: int | None = None):
     """(TrainState, meta) from RUN's latest (or given) checkpoint. `template` is a TrainState of
-    the same structure (e.g. `trainer.init(seed)`); its env_state is kept (not checkpointed)."""
-    step = require_checkpoint(run_dir) if step is None else step
-    out = _restore_as_numpy(run_dir, step, jax.device_get(_split(template)))
+    the same structure (e.g. `trainer.init(seed)`); its env_state is kept (not checkpointed).
+    A latest checkpoint that cannot be read (cut short, corrupted) is reported on stderr and the
+    one before it is used."""
+    steps = [step] if step is not None else sorted(kept_checkpoints(run_dir), reverse=True)
+    if not steps:
+        require_checkpoint(run_dir)  # the one-line error
+    targets = jax.device_get(_split(template))
+    for i, step in enumerate(steps):
+        try:
+            out = _restore_as_numpy(run_dir, step, targets)
+            break
+        except Exception as err:  # noqa: BLE001 (orbax and tensorstore raise many types)
+            why = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
+            if i + 1 == len(steps):
+                raise UserError(f"{run_dir}: checkpoint {step} cannot be read ({why}), and no older one "
+                                f"can") from None
+            print(f"mjxmimic: {run_dir}: checkpoint {step} cannot be read ({why}); using checkpoint "
+                  f"{steps[i + 1]}", file=sys.stderr)
     learner = out["learner"]
     ts = template.replace(
         params=template.params.replace(policy=out["params"]["policy"], value=out["params"]["value"]),
@@ -123,7 +139,12 @@ def restore_policy(run_dir: Path, networks, observation_size: int, step: int,
                         jax.ShapeDtypeStruct((observation_size,), np.float32)),
                     "key": key, "env_steps": brax_types.UInt64(hi=0, lo=0)},
     }
-    out = _restore_as_numpy(run_dir, step, targets, best)
+    try:
+        out = _restore_as_numpy(run_dir, step, targets, best)
+    except Exception as err:  # noqa: BLE001 (orbax and tensorstore raise many types)
+        why = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
+        raise UserError(f"{run_dir}: checkpoint {step} cannot be read ({why}); "
+                        f"--checkpoint picks another") from None
     try:
         normalizer = out["learner"]["normalizer"]
         params = {"normalizer": {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)},

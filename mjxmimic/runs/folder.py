@@ -9,6 +9,7 @@ parts through these names, so the layout is written down once.
     RUN/best.json      that evaluation: {"metric", "value", "checkpoint", "eval"}
     RUN/eval.json      the latest NR evaluation (mjxmimic.runs.evaluate) with the run's summary
     RUN/policy.npz     the exported policy (mjxmimic.portable.policy_file), or policy.onnx
+    RUN/.lock          held (flock) by the process training the run, so that no second one writes it
 
 Paths, config, eval and policy files need no JAX (sweeps and `mjxmimic play` use them); the
 checkpoint functions import it when called.
@@ -16,7 +17,10 @@ checkpoint functions import it when called.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -83,6 +87,35 @@ def require(run_dir: Path) -> Path:
     if not run_dir.is_dir():
         raise UserError(f"{run_dir}: run folder not found")
     return run_dir
+
+
+@contextlib.contextmanager
+def writer_lock(run_dir: Path) -> Iterator[None]:
+    """Hold RUN/.lock while this process writes the run: a second writer gets a one-line error
+    instead of mixing its metrics and checkpoints in. The OS drops the lock when the holder dies
+    (kill -9 included), so a stale file never blocks a resume."""
+    import fcntl
+
+    run_dir = Path(run_dir)
+    if run_dir.exists() and not run_dir.is_dir():
+        raise UserError(f"{run_dir}: exists and is not a folder")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    handle = (run_dir / ".lock").open("a+")
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        handle.seek(0)
+        holder = handle.read().strip() or "another process"
+        handle.close()
+        raise UserError(f"{run_dir}: {holder} is training this run; wait for it, or use another folder") from None
+    handle.truncate(0)
+    handle.write(f"process {os.getpid()}")
+    handle.flush()
+    try:
+        yield
+    finally:
+        fcntl.flock(handle, fcntl.LOCK_UN)
+        handle.close()
 
 
 def holds_run(run_dir: Path) -> bool:

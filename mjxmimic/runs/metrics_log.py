@@ -69,3 +69,25 @@ def read(run_dir: Path) -> list[dict]:
         except ValueError:
             continue
     return rows
+
+
+def truncate(run_dir: Path, step: int) -> int:
+    """Drop the records past `step` (and any line cut short by a crash) from RUN/metrics.jsonl, so
+    that a run resumed from the checkpoint at `step` never repeats steps; the file is replaced
+    whole. Returns the number of records dropped."""
+    path = metrics_path(run_dir)
+    if not path.is_file():
+        return 0
+    lines = path.read_text().splitlines()
+    keep = []
+    for line in lines:
+        try:
+            if json.loads(line)["step"] <= step:
+                keep.append(line)
+        except (ValueError, KeyError, TypeError):
+            continue
+    if len(keep) != len(lines):
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text("".join(f"{line}\n" for line in keep))
+        tmp.replace(path)
+    return len(lines) - len(keep)

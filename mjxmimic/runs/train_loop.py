@@ -24,7 +24,12 @@ from pathlib import Path
 from typing import Any, Callable
 
 from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
+
+
+# a step whose loss is not finite has written NaN into the parameters
+NON_FINITE_GUARD = ("ppo/total_loss", "policy/std")
 
 
 @dataclasses.dataclass
@@ -40,28 +45,38 @@ class Outcome:
 
 
 class _StopFlag:
-    """First Ctrl-C asks the loop to stop after the current iteration (then checkpoint, exit 130);
-    a second one interrupts at once."""
+    """The first Ctrl-C (SIGINT) or SIGTERM (what schedulers and `timeout` send) asks the loop to
+    stop after the current iteration, then checkpoint and exit 130 (143 for SIGTERM); a second
+    one interrupts at once."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
         self.requested = False
-        self._previous = None
+        self.signal = None
+        self._previous = {}
 
     def __enter__(self):
-        try:
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-        except ValueError:  # not the main thread
-            self._previous = None
+        for sig in self.SIGNALS:
+            try:
+                self._previous[sig] = signal.signal(sig, self._handle)
+            except ValueError:  # not the main thread
+                pass
         return self
 
     def _handle(self, signum, frame):
         if self.requested:
             raise KeyboardInterrupt
         self.requested = True
+        self.signal = signum
+
+    @property
+    def exit_code(self) -> int:
+        return 143 if self.signal == signal.SIGTERM else 130
 
     def __exit__(self, *exc):
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
+        for sig, previous in self._previous.items():
+            signal.signal(sig, previous)
 
 
 def _device_info() -> dict:
@@ -76,13 +91,25 @@ def _device_info() -> dict:
 def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
           env_factory: Callable | None = None, start_time: float | None = None,
           progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
-    """Train (or continue) the run in `run_dir`. `env`/`env_factory` default to mjxmimic.envs.mjx_env.make_env
-    (tests pass a stand-in). `start_time`: the command's start (time-to-skill counts from it)."""
+    """Train (or continue) the run in `run_dir`, holding its writer lock. `env`/`env_factory`
+    default to mjxmimic.envs.mjx_env.make_env (tests pass a stand-in). `start_time`: the command's
+    start (time-to-skill counts from it)."""
+    with folder.writer_lock(run_dir):
+        if not resume and folder.holds_run(run_dir):
+            raise UserError(f"{run_dir}: already holds a run (continue it with --resume)")
+        return _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
+                      progress=progress, on_iteration=on_iteration)
+
+
+def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_factory: Callable | None,
+           start_time: float | None, progress: bool | str,
+           on_iteration: Callable[[int, dict], None] | None) -> Outcome:
     t_start = time.time() if start_time is None else start_time
     import jax
 
     from mjxmimic.runs import checkpoint
     from mjxmimic.runs.evaluate import Evaluator
+    from mjxmimic.runs import metrics_log
     from mjxmimic.runs.metrics_log import MetricsLog
     from mjxmimic.learn.ppo import export_params, make_trainer
 
@@ -93,9 +120,6 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     trainer = make_trainer(env, config)
     run_cfg = config.run
 
-    if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
-        folder.write_config(run_dir, config)
-
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
     if resume:
@@ -105,6 +129,10 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
             jax.random.fold_in(restored.key, int(meta["env_steps"]) % (2**31))))
         del ts
         ts = trainer.place(restored)
+        # rows written after that checkpoint (a crash, kill -9) would repeat its steps
+        metrics_log.truncate(run_dir, int(meta["env_steps"]))
+    if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
+        folder.write_config(run_dir, config)  # only once the restore has succeeded
     prior_elapsed = float(meta.get("elapsed_seconds", 0.0))
     env_steps = int(meta.get("env_steps", 0))
     iterations = int(meta.get("iterations", 0))
@@ -176,16 +204,18 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
         return out
 
     reason = "done"
+    non_finite = ""
     final = None
     bar = _Progress(progress, run_cfg.total_samples, env_steps)
     next_eval = (last_eval_steps // run_cfg.eval_every + 1) * run_cfg.eval_every
     next_ckpt = (env_steps // run_cfg.checkpoint_every + 1) * run_cfg.checkpoint_every
     first_this_call = True
+    stop = _StopFlag()
     try:
         if not resume and run_cfg.eval_at_start and env_steps == 0:
             result = run_eval()
             bar.note(f"untrained policy: NR {result['nr']:.3f}")
-        with _StopFlag() as stop, bar:
+        with stop, bar:
             while env_steps < run_cfg.total_samples:
                 if stop.requested:
                     reason = "interrupted"
@@ -208,6 +238,11 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
                     state["steady_seconds"] += dt
                 record = {k: float(v) for k, v in metrics.items()}
                 log.write(env_steps, elapsed(), {"iteration": iterations, "samples_per_s": spi / dt, **record})
+                bad = [k for k in NON_FINITE_GUARD if not math.isfinite(record.get(k, 0.0))]
+                if bad:
+                    reason = "non_finite"
+                    non_finite = f"{bad[0]} is {record[bad[0]]} at {env_steps:,} samples"
+                    break
                 bar.update(env_steps, spi / dt, record.get("reward", math.nan))
                 if on_iteration is not None:
                     on_iteration(iterations, record)
@@ -229,7 +264,9 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     # Everything below also runs after Ctrl-C: the state in `ts` is whole (the step either
     # finished or never started; a donated-but-unassigned state cannot happen with the flag).
     try:
-        if not any(getattr(x, "is_deleted", lambda: False)() for x in jax.tree_util.tree_leaves(ts)):
+        # (never over the last good checkpoint with parameters that are no longer finite)
+        whole = not any(getattr(x, "is_deleted", lambda: False)() for x in jax.tree_util.tree_leaves(ts))
+        if whole and reason != "non_finite":
             if last_ckpt_steps != env_steps or checkpoint.latest_checkpoint(run_dir) is None:
                 save_checkpoint()
         if reason in ("done", "target"):
@@ -244,7 +281,11 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
                                                                       if isinstance(v, (int, float))}})
     finally:
         log.close()
-    return Outcome(exit_code=130 if reason == "interrupted" else 0, reason=reason, env_steps=env_steps,
+    if reason == "non_finite":
+        raise UserError(f"{run_dir}: training stopped: {non_finite} (the learning rate or the "
+                        f"physics diverged); the last good checkpoint, at {last_ckpt_steps:,} samples, is kept")
+    exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
+    return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps,
                    iterations=iterations, summary=out, final_eval=final)
 
 

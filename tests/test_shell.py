@@ -1,0 +1,124 @@
+"""Faults a training run must survive: a second writer, SIGTERM, kill -9 and resume, a corrupt
+newest checkpoint, a policy that turns NaN; each answered with one line, nothing lost."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjxmimic import cli
+from mjxmimic.core import config as config_lib
+from mjxmimic.core.errors import UserError
+from mjxmimic.runs import checkpoint, folder
+from mjxmimic.runs.metrics_log import read
+from mjxmimic.runs.train_loop import train
+from standin_env import StandInEnv
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _config(**run):
+    overrides = {"run.total_samples": 5120, "run.eval_every": 2560, "run.checkpoint_every": 2560}
+    overrides.update({f"run.{k}": v for k, v in run.items()})
+    return config_lib.make_config("cpu", overrides)
+
+
+def _steps(run_dir):
+    return [r["step"] for r in read(run_dir) if "samples_per_s" in r]
+
+
+def test_a_second_writer_is_refused_and_a_dead_ones_lock_is_not_in_the_way(tmp_path):
+    run_dir = tmp_path / "run"
+    holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import time
+        from mjxmimic.runs import folder
+        with folder.writer_lock({str(run_dir)!r}):
+            print("locked", flush=True)
+            time.sleep(60)
+    """)], cwd=REPO, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(UserError, match=r"process \d+ is training this run"):
+            train(_config(), run_dir, env=StandInEnv(), progress=False)
+        assert not (run_dir / "config.json").exists()  # nothing written
+    finally:
+        holder.kill()  # kill -9: the OS releases the lock
+        holder.wait()
+    out = train(_config(), run_dir, env=StandInEnv(), progress=False)
+    assert out.reason == "done"
+    with pytest.raises(UserError, match="already holds a run"):
+        train(_config(), run_dir, env=StandInEnv(), progress=False)
+
+
+def test_out_naming_a_file_is_one_line(tmp_path, capsys):
+    target = tmp_path / "file.txt"
+    target.write_text("keep me")
+    assert cli.main(["train", "--preset", "cpu", "--out", str(target)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].endswith("exists and is not a folder") and target.read_text() == "keep me"
+
+
+def test_sigterm_checkpoints_and_exits_143(tmp_path):
+    run_dir = tmp_path / "run"
+
+    def terminate(iteration, metrics):
+        if iteration == 3:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    before = signal.getsignal(signal.SIGTERM)
+    out = train(_config(), run_dir, env=StandInEnv(), progress=False, on_iteration=terminate)
+    assert out.exit_code == 143 and out.reason == "interrupted" and out.env_steps == 3 * 512
+    assert checkpoint.latest_checkpoint(run_dir) == 3 * 512
+    assert signal.getsignal(signal.SIGTERM) is before
+    again = train(_config(), run_dir, resume=True, env=StandInEnv(), progress=False)
+    assert again.reason == "done" and _steps(run_dir) == [512 * i for i in range(1, 11)]
+
+
+def test_resume_after_a_crash_drops_the_rows_past_the_checkpoint(tmp_path):
+    run_dir = tmp_path / "run"
+    train(_config(total_samples=2560), run_dir, env=StandInEnv(), progress=False)
+    # what a kill -9 leaves: rows of iterations after the last checkpoint and a line cut short
+    with (run_dir / "metrics.jsonl").open("a") as f:
+        f.write('{"step": 3072, "wall": 9.0, "samples_per_s": 1.0, "reward": 0.5}\n{"step": 3584, "wa')
+    train(_config(), run_dir, resume=True, env=StandInEnv(), progress=False)
+    steps = _steps(run_dir)
+    assert steps == [512 * i for i in range(1, 11)]  # no repeats, never backwards
+    assert all(isinstance(r, dict) for r in read(run_dir))
+
+
+def test_a_corrupt_newest_checkpoint_falls_back_to_the_one_before(tmp_path, capfd):
+    run_dir = tmp_path / "run"
+    train(_config(), run_dir, env=StandInEnv(), progress=False)
+    assert checkpoint.kept_checkpoints(run_dir) == [2560, 5120]
+    config_before = (run_dir / "config.json").read_text()
+    for data in (run_dir / "checkpoints" / "5120").rglob("*"):
+        if data.is_file() and data.parent.name == "d":
+            data.write_bytes(data.read_bytes()[:8])  # cut short
+    out = train(_config(total_samples=7680), run_dir, resume=True, env=StandInEnv(), progress=False)
+    assert "checkpoint 5120 cannot be read" in capfd.readouterr().err
+    assert out.reason == "done" and out.env_steps == 7680
+    assert _steps(run_dir) == [512 * i for i in range(1, 16)]  # 5 to 10 again, from checkpoint 2560
+    assert (run_dir / "config.json").read_text() != config_before  # rewritten (total_samples) after the restore
+
+
+def test_a_policy_that_turns_nan_stops_with_one_line_and_keeps_the_good_checkpoint(tmp_path):
+    run_dir = tmp_path / "run"
+    train(_config(total_samples=2560), run_dir, env=StandInEnv(), progress=False)
+    wreck = config_lib.apply_overrides(_config(total_samples=20480), {"ppo.learning_rate": 1e9})
+    with pytest.raises(UserError, match=r"training stopped: .* is nan at .*last good checkpoint, at 2,560"):
+        train(wreck, run_dir, resume=True, env=StandInEnv(), progress=False)
+    assert checkpoint.latest_checkpoint(run_dir) == 2560
+    env = StandInEnv()
+    params, _ = folder.load_policy_params(run_dir, env.observation_size, env.action_size)
+    assert all(np.isfinite(v).all() for layer in params["policy"].values() for v in layer.values())
+
+
+def test_no_hidden_layer_is_refused():
+    with pytest.raises(UserError, match="ppo.policy_hidden': needs at least one layer"):
+        config_lib.make_config("cpu", {"ppo.policy_hidden": ""})
