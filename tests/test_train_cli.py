@@ -215,10 +215,11 @@ def test_eval_command_on_a_run(tmp_path, capsys):
 
     run_dir = tmp_path / "run"
     train(_standin_config(), run_dir, env=StandInEnv(), progress=False)
-    (run_dir / "eval.json").unlink()
+    training_eval = (run_dir / "eval.json").read_text()
     result = evaluate_run(run_dir, episodes=4, env=StandInEnv())
     assert result["episodes"] == 4 and result["samples"] == 5120 and result["checkpoint"] == 5120
-    assert json.loads((run_dir / "eval.json").read_text())["nr"] == result["nr"]
+    assert json.loads((run_dir / "eval_5120.json").read_text())["nr"] == result["nr"]
+    assert (run_dir / "eval.json").read_text() == training_eval  # the training's own stays whole
 
 
 def test_target_nr_stops_and_records_time_to_skill(tmp_path):

@@ -1,7 +1,8 @@
 """`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint.
 
-Evaluates the run's latest checkpoint by the NR protocol (mjxmimic.runs.evaluate_run), which
-writes RUN/eval.json, and prints a short table (or the JSON with --json). With --push it runs
+Evaluates one of the run's checkpoints (the latest unless --checkpoint) by the NR protocol
+(mjxmimic.runs.evaluate_run), which writes RUN/eval_<checkpoint>.json (the training's eval.json
+stays), and prints a short table (or the JSON with --json). With --push it runs
 DeepMimic's Table 6 push test instead (mjxmimic.runs.push_eval) and writes RUN/push.json.
 """
 
@@ -31,7 +32,11 @@ PAPER_PUSH_N = {"walk": (240, 300), "run": (720, 300), "backflip": (440, 100), "
 
 
 _ROWS = [
-    ("nr", "normalised return (NR)", "{:.4f}"),
+    ("nr", "NR, the run's reward form (released: five terms)", "{:.4f}"),
+    ("nr_paper", "NR, the paper's four-term reward", "{:.4f}"),
+    ("success_rate", "task success rate", "{:.3f}"),
+    ("task_return", "task return (mean r_task per step)", "{:.4f}"),
+    ("speed_ratio", "heading: speed along the goal / commanded", "{:.3f}"),
     ("fall_rate", "fall rate", "{:.3f}"),
     ("survival_s", "mean survival (s)", "{:.2f}"),
     ("pose_error_rad", "pose error (rad)", "{:.4f}"),
@@ -74,7 +79,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_push(args)
     from mjxmimic.runs.evaluate_run import evaluate_run
 
-    result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint)
+    say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
+    result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint, progress=say)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0

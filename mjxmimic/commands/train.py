@@ -89,16 +89,28 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
     return config, run_dir, False
 
 
+def in_words(result: dict, config: config_lib.Config) -> str:
+    """An evaluation for a newcomer: what NR means, how often the character fell, how long it lasted."""
+    horizon = result.get("mean_horizon_steps", 0) / config.env.control_hz
+    return (f"NR {result['nr']:.3f} (0 = falls at once, 1 = tracks the clip perfectly); "
+            f"fell in {result['fall_rate']:.0%} of {result.get('episodes', '?')} evaluation episodes, "
+            f"lasting {result['survival_s']:.2f} s of {horizon:.2f} s on average")
+
+
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.runs.train_loop import train
 
     start = time.time()
     config, run_dir, resume = resolve_run(args)
+    say = lambda text: print(f"mjxmimic train: {text}", file=sys.stderr, flush=True)  # noqa: E731
+    say(f"building the env ({config.clip.name}, {config.ppo.num_envs:,} envs); the first iteration "
+        f"then waits for JAX to compile the train step")
     if not resume:
         # Build the env before writing anything: a bad clip is one error line and no folder.
         from mjxmimic.envs.mjx_env import make_env
 
         env = make_env(config)
+        say(f"env built in {time.time() - start:.0f} s (physics: {env.backend}); compiling")
     else:
         env = None
     outcome = train(config, run_dir, resume=resume, env=env, start_time=start,
@@ -110,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         line += f", {s['samples_per_s_steady']:,.0f} samples/s steady"
     final = outcome.final_eval
     if final is not None:
-        line += f"; NR {final['nr']:.3f} (fall rate {final['fall_rate']:.2f})"
+        line += "; " + in_words(final, config)
     elif outcome.reason == "max_seconds":
         line += f"; continue with: mjxmimic train --resume {run_dir}"
     if s.get("recompiled"):

@@ -1,24 +1,27 @@
-"""NR of a run folder's latest checkpoint, outside training (`mjxmimic eval`, physics studies).
+"""NR of a run folder's checkpoint, outside training (`mjxmimic eval`, physics studies).
 
 The NR protocol itself is mjxmimic.runs.evaluate's; this reads the run (mjxmimic.runs.folder),
-builds its env unless given one, and records the result beside the checkpoint it measured.
+builds its env unless given one, and records the result beside the checkpoint it measured
+(RUN/eval_<checkpoint>.json).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
 
 
-def load_run_policy(run_dir: Path, env: Any = None,
-                    which: str = "latest") -> tuple[Any, Any, Any, dict[str, Any], int]:
+def load_run_policy(run_dir: Path, env: Any = None, which: str = "latest",
+                    progress: Callable[[str], None] | None = None) -> tuple[Any, Any, Any, dict[str, Any], int]:
     """(config, env, deterministic policy fn, checkpoint metadata, checkpoint step) of one of RUN's
     checkpoints (folder.select_checkpoint); the env is the run's own unless given."""
     config = folder.load_config(run_dir)
     step, best = folder.select_checkpoint(run_dir, which)  # before the slow env build
+    if progress is not None:
+        progress(f"checkpoint {step:,}{' (the best)' if best else ''}: building the env")
 
     from mjxmimic.learn.ppo import make_networks, make_policy_fn
 
@@ -32,16 +35,21 @@ def load_run_policy(run_dir: Path, env: Any = None,
 
 
 def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env: Any = None,
-                 write: bool = True, which: str = "latest") -> dict[str, Any]:
-    """NR of RUN's latest checkpoint, in `env` if given (e.g. other physics settings), else in
-    the run's own; seed defaults to run.seed + 1, as in training. `write`: also save it as
-    RUN/eval.json."""
+                 write: bool = True, which: str = "latest",
+                 progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """NR of one of RUN's checkpoints (the latest by default), in `env` if given (e.g. other
+    physics settings), else in the run's own; seed defaults to run.seed + 1, as in training.
+    `write`: also save it as RUN/eval_<checkpoint>.json (the training's own eval.json stays).
+    `progress(text)` hears what is happening."""
     if episodes is not None and episodes < 1:
         raise UserError(f"--episodes {episodes}: must be at least 1")
-    config, env, policy, meta, step = load_run_policy(run_dir, env, which)
+    say = progress or (lambda text: None)
+    config, env, policy, meta, step = load_run_policy(run_dir, env, which, progress)
 
     from mjxmimic.runs.evaluate import evaluate
 
+    n = episodes or config.run.eval_episodes
+    say(f"compiling and running {n} episodes")
     result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed,
                       episodes=episodes, samples=meta["env_steps"], train_seconds=meta["elapsed_seconds"])
     if meta.get("time_to_skill_s") is not None:
@@ -49,5 +57,5 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
     result["checkpoint"] = step
     result["clip"] = config.clip.name
     if write:
-        folder.write_eval(run_dir, result)
+        folder.write_json_atomic(folder.eval_path_of(run_dir, step), result)
     return result

@@ -8,6 +8,7 @@ parts through these names, so the layout is written down once.
     RUN/best/          the checkpoint of the best evaluation so far (NR of the run's reward form)
     RUN/best.json      that evaluation: {"metric", "value", "checkpoint", "eval"}
     RUN/eval.json      the latest NR evaluation (mjxmimic.runs.evaluate) with the run's summary
+    RUN/eval_<N>.json  `mjxmimic eval`'s evaluation of checkpoint N
     RUN/policy.npz     the exported policy (mjxmimic.portable.policy_file), or policy.onnx
     RUN/.lock          held (flock) by the process training the run, so that no second one writes it
 
@@ -59,6 +60,11 @@ def tensorboard_dir(run_dir: Path) -> Path:
 def checkpoint_dir(run_dir: Path) -> Path:
     """Absolute, as orbax requires."""
     return Path(run_dir).resolve() / CHECKPOINTS
+
+
+def eval_path_of(run_dir: Path, step: int) -> Path:
+    """Where `mjxmimic eval` records its evaluation of checkpoint `step`."""
+    return Path(run_dir) / f"eval_{step}.json"
 
 
 def best_dir(run_dir: Path) -> Path:

@@ -233,6 +233,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                 if first_this_call:
                     first_this_call = False
                     state["cache_after_first"] = trainer.train_step._cache_size()
+                    bar.note(f"first iteration done in {dt:.0f} s (compilation included); "
+                             f"{elapsed() - prior_elapsed:.0f} s since the start")
                 else:
                     state["steady_samples"] += spi
                     state["steady_seconds"] += dt
