@@ -123,3 +123,20 @@ def test_clips_command_stays_jax_free():
                             timeout=120, check=False)
     assert result.returncode == 0, result.stderr
     assert "valid" in result.stdout
+
+
+def test_every_option_of_every_command_has_help_text():
+    import argparse
+
+    from mjxmimic.cli import build_parser
+
+    def walk(parser):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    yield from walk(sub)
+            elif not isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
+                yield parser.prog, action
+
+    missing = [f"{prog} {'/'.join(a.option_strings) or a.dest}" for prog, a in walk(build_parser()) if not a.help]
+    assert not missing, missing

@@ -11,13 +11,16 @@ from mjxmimic.core import config as config_lib
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--preset", default="gpu", choices=sorted(config_lib.PRESETS))
+    parser.add_argument("--preset", default="gpu", choices=sorted(config_lib.PRESETS),
+                        help="config preset to measure (default: gpu)")
     parser.add_argument("--clip", default=None, help="clip NAME or PATH (default: the preset's clip)")
     parser.add_argument("--num-envs", type=int, nargs="+", default=None,
                         help="env counts (default: 4096 8192 16384 65536 for gpu, 32 128 for cpu)")
     parser.add_argument("--kinds", nargs="+", default=["physics_only", "env_step", "train_loop"],
-                        choices=["physics_only", "env_step", "train_loop"])
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE")
+                        choices=["physics_only", "env_step", "train_loop"],
+                        help="what to measure: physics alone, the env step, the full training loop (default: all)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override a config key (repeatable)")
     parser.add_argument("--out", type=Path, default=None, help="write the results as JSON here")
 
 

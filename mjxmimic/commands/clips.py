@@ -141,8 +141,8 @@ def add_render_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="FILE.mp4", default=None, help="video file (default: NAME.mp4)")
     parser.add_argument("--seconds", type=float, default=None, help="length (default: the clip's duration)")
     parser.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
-    parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--height", type=int, default=480)
+    parser.add_argument("--width", type=int, default=640, help="video width in pixels (a multiple of 16)")
+    parser.add_argument("--height", type=int, default=480, help="video height in pixels (a multiple of 16)")
     _add_clips_dir(parser)
 
 
