@@ -35,11 +35,11 @@ def run(args: argparse.Namespace) -> int:
         overrides["clip.name"] = args.clip
     base = config_lib.make_config(args.preset, overrides)
     counts = args.num_envs or ([4096, 8192, 16384, 65536] if args.preset == "gpu" else [32, 128])
-    character, clips = load_env_inputs(base)
+    character, clips, weights = load_env_inputs(base)
     rows = []
     for n in counts:
         cfg = config_lib.apply_overrides(base, {"ppo.num_envs": n})
-        env = ImitationEnv(cfg, character, clips)
+        env = ImitationEnv(cfg, character, clips, weights)
         for kind in args.kinds:
             m = bench.train_loop(env, cfg) if kind == "train_loop" else getattr(bench, kind)(env, n)
             rows.append(dataclasses.asdict(m))

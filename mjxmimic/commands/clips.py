@@ -55,7 +55,8 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def add_info_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("clip", metavar="NAME|PATH", help="a clip name (see `mjxmimic clips list`) or a file")
+    parser.add_argument("clip", metavar="NAME|PATH", help="a clip name (see `mjxmimic clips list`), a clip file, "
+                        "or a dataset file (.json/.yaml with a list under \"clips\")")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     _add_clips_dir(parser)
 
@@ -112,11 +113,36 @@ def _print_summary(s: dict) -> None:
         print(f"{key:<{width}}  {value}")
 
 
+def _run_dataset_info(args: argparse.Namespace, character) -> int:
+    """A dataset: each clip's duration, loop mode, speed and its share of the RSI draws."""
+    from mjxmimic.motion.dataset import load_dataset
+
+    data = load_dataset(args.clip, character, args.clips_dir)
+    total = sum(data.weights)
+    rows = [{"name": c.name, "path": str(c.path), "weight": w, "share": w / total,
+             "duration_s": round(c.duration, 6), "loop": c.loop_mode, "mean_speed_mps": round(c.mean_speed, 4),
+             "heading_change_deg": round(math.degrees(c.heading_change), 2)}
+            for c, w in zip(data.clips, data.weights)]
+    if args.json:
+        print(json.dumps({"dataset": str(data.path), "clips": rows}))
+        return 0
+    print(f"{data.path}: {len(rows)} clips")
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        print(f"  {r['name']:<{width}}  weight {r['weight']:g} ({r['share']:.0%} of the starts), "
+              f"{r['duration_s']:.2f} s, {r['loop']}, {r['mean_speed_mps']:.2f} m/s, "
+              f"turns {r['heading_change_deg']:.0f} deg")
+    return 0
+
+
 def run_info(args: argparse.Namespace) -> int:
     from mjxmimic.core.character import load_character
     from mjxmimic.motion.clip import ClipError, load_clip, resolve_clip
+    from mjxmimic.motion.dataset import is_dataset
 
     character = load_character()
+    if is_dataset(args.clip):
+        return _run_dataset_info(args, character)
     try:
         clip = load_clip(resolve_clip(args.clip, args.clips_dir), character)
     except ClipError as err:

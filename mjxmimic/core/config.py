@@ -69,6 +69,9 @@ class RewardConfig:
     # root runs on its own and drift costs root reward for the rest of the episode.
     sync_root_position: bool = True
     weights: str = ""  # "term=weight,...": re-weight terms of the chosen reward (0 drops one)
+    # "own": graded against the env's own clip; "max": the best over the dataset's clips at the
+    # same phase, each reference turned and moved to the character (DeepMimic's multi-clip reward)
+    combine: str = "own"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -276,6 +279,7 @@ def validate(config: Config) -> None:
         (env.push_duration_s > 0, "env.push_duration_s", "must be positive"),
         (env.push_interval_s > env.push_duration_s, "env.push_interval_s", "must be longer than env.push_duration_s"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
+        (config.reward.combine in ("own", "max"), "reward.combine", "must be 'own' or 'max'"),
         (config.task.name in ("", "heading", "strike"), "task.name", "must be '' (none), 'heading' or 'strike'"),
         (0 <= config.task.target_min_m <= config.task.target_max_m, "task.target_min_m",
          "must be >= 0 and at most task.target_max_m"),

@@ -95,6 +95,8 @@ class ImitationEnv(Env):
         keys = ["reward", "reward/imitation", "fell", "lost_track", "physics/reset_nan", "error/pose",
                 "error/end_effector"]
         keys += list(goals.METRICS[self.config.task.name])
+        if self.config.reward.combine == "max":
+            keys.append("reward/own_clip")
         return keys + [f"reward/{t.name}" for t in self.spec.rewards]
 
     def step(self, state: State, action: jax.Array) -> State:
@@ -133,13 +135,18 @@ class ImitationEnv(Env):
         return step_lib.eval_horizon(self.spec, clip, jnp.asarray(t), jnp)
 
 
-def load_env_inputs(config: Config) -> tuple[Character, list[Any]]:
+def load_env_inputs(config: Config) -> tuple[Character, list[Any], list[float] | None]:
+    """(character, clips, weights): clip.name is one clip, or a dataset of them (weights then)."""
+    from mjxmimic.motion import dataset
     from mjxmimic.motion.clip import load_clip_source
 
     character = load_character(resolve_xml(config.character.xml))
-    return character, [load_clip_source(config.clip.name, character)]
+    if dataset.is_dataset(config.clip.name):
+        data = dataset.load_dataset(config.clip.name, character)
+        return character, data.clips, data.weights
+    return character, [load_clip_source(config.clip.name, character)], None
 
 
 def make_env(config: Config, max_worlds: int | None = None) -> ImitationEnv:
-    character, clips = load_env_inputs(config)
-    return ImitationEnv(config, character, clips, max_worlds=max_worlds)
+    character, clips, weights = load_env_inputs(config)
+    return ImitationEnv(config, character, clips, weights, max_worlds=max_worlds)

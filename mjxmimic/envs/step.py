@@ -106,7 +106,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         paper_rewards=reward_terms.terms("paper"),
         control_dt=1.0 / env.control_hz,
         max_steps=int(round(env.episode_seconds * env.control_hz)),
-        observation_size=(obs_terms.observation_size(scene.model.nbody, env.observations)
+        observation_size=(obs_terms.observation_size(scene.model.nbody, env.observations, len(clips))
                           + goals.GOAL_SIZE[config.task.name]),
         action_size=character.action_size,
         task_body=_task_body(config, scene),
@@ -134,7 +134,9 @@ def goal(spec: Spec, motion: Motion, xp: Any) -> tuple[Any, Any]:
 def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
     """The observation terms, then the goal when there is a task (DEEPMIMIC.md)."""
     xp = physics.xp
-    obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp)
+    onehot = (xp.arange(len(spec.lib.duration)) == motion.clip).astype(xp.float32)
+    obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp,
+                            onehot)
     task = spec.config.task.name
     if task == "heading":
         return xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
@@ -184,6 +186,24 @@ def max_eval_horizon(spec: Spec) -> int:
     return max(bounds)
 
 
+def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: Any) -> Any:
+    """DeepMimic's multi-clip reward: the imitation reward against each clip of the library at
+    the same phase, its reference turned and moved to the character, and the best of them."""
+    xp, lib = physics.xp, spec.lib
+
+    def against(c: Any) -> Any:
+        ref_qpos, ref_qvel = motion_lib.sample(lib, c, phase * lib.duration[c], xp)
+        ref = physics.kinematics(*goals.align_reference(ref_qpos, ref_qvel, qpos, xp))
+        return reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)[0]
+
+    count = len(lib.duration)
+    if xp is np:
+        return max(against(c) for c in range(count))
+    import jax
+
+    return xp.max(jax.vmap(against)(xp.arange(count)))
+
+
 def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, action: Any,
                  terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False) -> Result:
     """One control step (the module docstring); no reset. `external_force` (nbody, 6) is added to
@@ -209,6 +229,9 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     else:
         ref = physics.kinematics(motion_lib.shift_root(ref_qpos, offset, xp), ref_qvel)
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
+    if spec.config.reward.combine == "max":
+        metrics["reward/own_clip"] = r
+        r = best_clip_reward(spec, physics, sim, qpos, motion_lib.phase(lib, clip, t, xp))
     metrics["reward/imitation"] = r
     goal_state = motion.goal
     if task.name == "heading":

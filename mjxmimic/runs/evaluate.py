@@ -17,6 +17,7 @@ from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjxmimic.core.config import Config
 from mjxmimic.task import goals
@@ -85,15 +86,36 @@ def _finish(result: dict, seconds: float, samples: int | None, train_seconds: fl
     return result
 
 
+PER_CLIP_FIELDS = ("nr", "nr_paper", "fall_rate")
+
+
+def per_clip(env, run_clip: Callable[[jax.Array], dict]) -> dict:
+    """One clip: its evaluation. A dataset: every clip's own (the episodes of clip c start on clip
+    c, so a skill selector reads c), its NR fields as clip/<name>/<field>, and every figure
+    averaged over the clips by their weights."""
+    count = len(env.clip_durations)
+    results = [run_clip(jnp.asarray(c, jnp.int32)) for c in range(count)]
+    if count == 1:
+        return results[0]
+    weights = np.asarray(env.spec.lib.clip_weight, np.float64)
+    out = {key: float(sum(w * r[key] for w, r in zip(weights, results)))
+           for key, value in results[0].items() if isinstance(value, (int, float)) and not isinstance(value, bool)}
+    out["episodes"] = sum(r["episodes"] for r in results)
+    for clip, r in zip(env.clips, results):
+        out.update({f"clip/{clip.name}/{key}": r[key] for key in PER_CLIP_FIELDS})
+    return out
+
+
 def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episodes: int | None = None,
              samples: int | None = None, train_seconds: float | None = None) -> dict:
     """NR and friends for a fixed `policy_fn(obs, key) -> action` (compiles on every call; for
     repeated evaluations of changing parameters use `Evaluator`)."""
     n = int(episodes or config.run.eval_episodes)
     start = time.time()
-    acc = jax.jit(lambda key: _rollout(env, policy_fn, key, n))(jax.random.PRNGKey(seed))
-    acc = jax.device_get(acc)
-    return _finish(summarize(acc, env.control_dt, task_of(env)), time.time() - start, samples, train_seconds)
+    run = jax.jit(lambda key, clip: _rollout(env, policy_fn, key, n, clip))
+    key, task = jax.random.PRNGKey(seed), task_of(env)
+    result = per_clip(env, lambda c: summarize(jax.device_get(run(key, c)), env.control_dt, task))
+    return _finish(result, time.time() - start, samples, train_seconds)
 
 
 class Evaluator:
@@ -113,16 +135,16 @@ class Evaluator:
         self.num_episodes = int(episodes or config.run.eval_episodes)
         self.stochastic = config.run.eval_stochastic
         self._run = jax.jit(
-            lambda params, key, deterministic: _rollout(env, make_policy(params, deterministic), key,
-                                                        self.num_episodes), static_argnums=2)
+            lambda params, key, deterministic, clip: _rollout(env, make_policy(params, deterministic), key,
+                                                              self.num_episodes, clip), static_argnums=2)
 
     def __call__(self, params: Any, seed: int = 0, *, samples: int | None = None,
                  train_seconds: float | None = None) -> dict:
         start = time.time()
         key = jax.random.PRNGKey(seed)
-        task = task_of(self.env)
-        result = summarize(jax.device_get(self._run(params, key, True)), self.env.control_dt, task)
+        task, dt = task_of(self.env), self.env.control_dt
+        result = per_clip(self.env, lambda c: summarize(jax.device_get(self._run(params, key, True, c)), dt, task))
         if self.stochastic:
-            noisy = summarize(jax.device_get(self._run(params, key, False)), self.env.control_dt, task)
+            noisy = per_clip(self.env, lambda c: summarize(jax.device_get(self._run(params, key, False, c)), dt, task))
             result.update({f"stochastic_{k}": noisy[k] for k in self.STOCHASTIC_FIELDS})
         return _finish(result, time.time() - start, samples, train_seconds)

@@ -14,6 +14,7 @@ import numpy as np
 
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.character import load_character, resolve_xml
+from mjxmimic.core.errors import UserError
 from mjxmimic.portable import policy_file
 from mjxmimic.portable.policy_file import PolicyFile
 from mjxmimic.runs import folder
@@ -61,8 +62,13 @@ def policy_file_from_run(run_dir: Path, which: str = "best") -> PolicyFile:
     "latest" or env_steps), in memory; imports JAX."""
     from mjxmimic.motion.clip import load_clip_source
 
+    from mjxmimic.motion.dataset import is_dataset
+
     run_dir = Path(run_dir)
     config = folder.load_config(run_dir)
+    if is_dataset(config.clip.name):
+        raise UserError(f"{run_dir}: trained on a dataset ({config.clip.name}); the portable policy file "
+                        f"holds one clip, so such a policy cannot be exported yet (evaluate it with `mjxmimic eval`)")
     character = load_character(resolve_xml(config.character.xml))
     clip = load_clip_source(config.clip.name, character)
     step, best = folder.select_checkpoint(run_dir, which)

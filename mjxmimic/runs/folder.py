@@ -249,8 +249,12 @@ def load_policy_params(run_dir: Path, observation_size: int | None = None, actio
         from mjxmimic.task.goals import GOAL_SIZE
         from mjxmimic.task.observation import observation_size as observation_size_of
 
+        from mjxmimic.motion import dataset
+
         character = load_character(resolve_xml(config.character.xml))
-        observation_size = (observation_size_of(character.model.nbody, config.env.observations)
+        nclips = (len(dataset.load_dataset(config.clip.name, character).clips)
+                  if dataset.is_dataset(config.clip.name) else 1)
+        observation_size = (observation_size_of(character.model.nbody, config.env.observations, nclips)
                             + GOAL_SIZE[config.task.name])
         action_size = character.action_size
     networks = make_networks(observation_size, action_size, config)

@@ -5,6 +5,7 @@ via `xp`; the same functions serve training and CPU playback.
 The default, the released code's 227 numbers for the humanoid: phase; root height; for every body
 its position relative to the root, its forward (x) and up (z) axes, linear and angular velocity,
 all rotated into the heading frame (the rotation about the up axis that undoes the root's facing).
+`skill` adds a one-hot of the env's clip in a dataset, which a user switches at play time.
 """
 
 from __future__ import annotations
@@ -37,9 +38,17 @@ def bodies(k: Kin, clip_phase: Any, xp: Any) -> Any:
     return xp.concatenate([xp.reshape(x, (-1,)) for x in (pos, forward, up, lin, ang)])
 
 
-TERMS: dict[str, Callable[[Kin, Any, Any], Any]] = {"phase": phase, "root_height": root_height, "bodies": bodies}
-SIZES: dict[str, Callable[[int], int]] = {"phase": lambda nbody: 1, "root_height": lambda nbody: 1,
-                                          "bodies": lambda nbody: 15 * (nbody - 1)}
+def skill(k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None) -> Any:
+    """The skill selector (DEEPMIMIC.md, section 7): a one-hot of the env's clip in its dataset."""
+    return skill_onehot
+
+
+TERMS: dict[str, Callable[..., Any]] = {"phase": phase, "root_height": root_height, "bodies": bodies,
+                                        "skill": skill}
+SIZES: dict[str, Callable[[int, int], int]] = {"phase": lambda nbody, nclips: 1,
+                                               "root_height": lambda nbody, nclips: 1,
+                                               "bodies": lambda nbody, nclips: 15 * (nbody - 1),
+                                               "skill": lambda nbody, nclips: nclips}
 
 
 def parse(names: str) -> tuple[str, ...]:
@@ -51,9 +60,9 @@ def parse(names: str) -> tuple[str, ...]:
     return out
 
 
-def observation_size(nbody: int, names: str = DEFAULT) -> int:
-    return sum(SIZES[n](nbody) for n in parse(names))
+def observation_size(nbody: int, names: str = DEFAULT, nclips: int = 1) -> int:
+    return sum(SIZES[n](nbody, nclips) for n in parse(names))
 
 
-def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any) -> Any:
-    return xp.concatenate([TERMS[n](k, clip_phase, xp) for n in terms])
+def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None) -> Any:
+    return xp.concatenate([skill_onehot if n == "skill" else TERMS[n](k, clip_phase, xp) for n in terms])
