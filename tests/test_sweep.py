@@ -412,3 +412,35 @@ def test_cpu_sweep_failure_report_and_rerun(tmp_path, capsys):
     assert state["runs"]["slow_walk-s0"]["attempts"] == 1 and state["runs"]["broken-s0"]["attempts"] == 2
     assert (out / "logs" / "slow_walk-s0.log").read_text().count("== attempt") == 1
     assert second < first / 3
+
+
+def test_slurm_executor_through_submitits_local_cluster(tmp_path, monkeypatch, capsys):
+    """The same spec through --executor slurm (submitit's local stand-in): one run finishes, the
+    failing one is isolated, and the report rows match the local runner's."""
+    pytest.importorskip("submitit")
+    fake = tmp_path / "fake_train.py"
+    fake.write_text(FAKE_TRAIN)
+    (tmp_path / "fail.txt").write_text("{}")
+    monkeypatch.setenv("FAKE_LOG", str(tmp_path / "calls.jsonl"))
+    monkeypatch.setenv("FAKE_SLEEP", "0.5")
+    from mjxmimic.ops.sweep.executors import SlurmExecutor
+
+    rows = {}
+    for name in ("local", "slurm"):
+        spec = sweep.load_spec(write_spec(tmp_path / f"{name}.json", preset="cpu",
+                                          clips=["squat", str(tmp_path / "fail.txt")],
+                                          set={"run.total_samples": 256}, out=str(tmp_path / name)))
+        executor = SlurmExecutor(spec.out, cluster="local", time_limit_min=5) if name == "slurm" else None
+        t0 = time.time()
+        results = sweep.Runner(spec, gpus=[], train_command=[sys.executable, str(fake)], echo=lambda s: None,
+                               executor=executor).run()
+        assert sorted(results.values()) == ["failed", "finished"], results
+        sweep.write_report(spec, echo=lambda s: None)
+        rows[name] = [{k: v for k, v in r.items() if k not in ("wall_s", "samples_per_s")}
+                      for r in csv.DictReader((spec.out / "report.csv").open())]
+        if name == "slurm":
+            assert list((spec.out / "slurm").glob("*_submitted.pkl"))  # went through submitit
+            assert "boom: made to fail" in (spec.out / "logs" / "fail-s0.log").read_text()
+    assert rows["slurm"] == rows["local"]
+    with pytest.raises(UserError, match="no Slurm cluster"):
+        SlurmExecutor(tmp_path / "x", cluster="local", partition="gpu")

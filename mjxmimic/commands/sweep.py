@@ -1,12 +1,13 @@
 """`mjxmimic sweep`: a spec file of training runs, run (or resumed) and reported.
 
     mjxmimic sweep SPEC [--dry-run] [--out DIR] [--gpus auto|none|N|ID,ID] [--max-seconds S]
+                        [--executor local|slurm [--partition P] [--time-limit MIN] [--gpus-per-job N]]
     mjxmimic sweep SPEC --report
 
 SPEC is a JSON file (format: mjxmimic/sweep.py; examples in experiments/sweeps/). Each run is a
 normal run folder OUT/RUN (OUT: the spec's "out", default runs/sweeps/NAME), trained by a
 subprocess `mjxmimic train`, one after another, or one per GPU at the same time when two or more
-are visible. A failed run is recorded (OUT/sweep.json, its log in OUT/logs/) and the others go on.
+are visible; with --executor slurm, by a Slurm job per run (mjxmimic.ops.sweep.executors). A failed run is recorded (OUT/sweep.json, its log in OUT/logs/) and the others go on.
 Running the same spec again skips finished runs, resumes interrupted or time-stopped ones and
 retries failed ones. At the end (or with --report alone) OUT/report.md, OUT/report.csv and
 OUT/curves.png (needs matplotlib) are written.
@@ -41,6 +42,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "none: one after another; N: the first N GPUs; 0,2: those GPU ids")
     parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
                         help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
+    parser.add_argument("--executor", choices=("local", "slurm"), default="local",
+                        help="where runs execute: subprocesses here (default), or a Slurm job per run "
+                             "through submitit (pip install 'mjxmimic[slurm]')")
+    parser.add_argument("--partition", default=None, help="slurm: the partition to submit to")
+    parser.add_argument("--time-limit", type=int, default=60, metavar="MIN",
+                        help="slurm: minutes per job; a job that reaches it is requeued and resumes (default 60)")
+    parser.add_argument("--gpus-per-job", type=int, default=1, help="slurm: GPUs per job (default 1)")
+    parser.add_argument("--max-jobs", type=int, default=None, help="slurm: jobs in flight at once (default: all runs)")
+    parser.add_argument("--cluster", choices=("auto", "local"), default="auto",
+                        help="slurm: auto = the Slurm cluster this machine submits to; local = submitit's "
+                             "local stand-in, the same jobs as processes on this machine (to try a sweep)")
 
 
 def _echo(text: str) -> None:
@@ -76,8 +88,16 @@ def run(args: argparse.Namespace) -> int:
                 _echo(f"    mjxmimic train {shlex.join(sweep.train_args(spec, p, args.max_seconds))}")
         return 0
 
+    executor = None
+    if args.executor == "slurm":
+        from mjxmimic.ops.sweep.executors import SlurmExecutor
+
+        executor = SlurmExecutor(spec.out, partition=args.partition, time_limit_min=args.time_limit,
+                                 gpus_per_job=args.gpus_per_job, max_jobs=args.max_jobs,
+                                 cluster=None if args.cluster == "auto" else args.cluster)
+        mode = f"a job per run on the {executor.where}"
     _echo(f"sweep {spec.name}: {len(spec.runs)} runs in {spec.out}; {mode}")
-    runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo)
+    runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo, executor=executor)
     try:
         results = runner.run()
     except KeyboardInterrupt:

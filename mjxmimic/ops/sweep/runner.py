@@ -1,5 +1,6 @@
 """Running a sweep: plan (skip, resume or start each run from its folder), one `mjxmimic train`
-subprocess per run (one per GPU when several are visible), the state file, signals."""
+per run through an executor (mjxmimic.ops.sweep.executors: local subprocesses, one per GPU when
+several are visible, or Slurm jobs), the state file, signals."""
 
 from __future__ import annotations
 
@@ -16,10 +17,12 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
+from mjxmimic.ops.sweep.executors import LocalExecutor
 from mjxmimic.ops.sweep.report import run_row, write_tables
 from mjxmimic.ops.sweep.spec import RunSpec, Spec, cli_value
 from mjxmimic.ops.sweep.state import State, now, is_finished
@@ -167,13 +170,16 @@ class Runner:
 
     train_command: the command that takes `mjxmimic train` arguments (tests pass a stand-in).
     gpus: ids to pin runs to, one run per id at a time (two or more: parallel); [] = sequential.
+    executor: where runs execute (mjxmimic.ops.sweep.executors; local subprocesses by default).
     max_seconds: the whole sweep's wall-clock budget (runs are bounded by it and stop with a
     checkpoint; runs that would get less than MIN_START_SECONDS are not started).
     """
 
     def __init__(self, spec: Spec, *, gpus: list[str] | None = None, max_seconds: float | None = None,
-                 train_command: list[str] | None = None, echo: Callable[[str], None] = print):
+                 train_command: list[str] | None = None, echo: Callable[[str], None] = print,
+                 executor: Any = None):
         self.spec = spec
+        self.executor = executor or LocalExecutor()
         self.gpus = list(gpus or [])
         self.max_seconds = max_seconds
         self.train_command = list(train_command or default_train_command())
@@ -219,14 +225,14 @@ class Runner:
         if threading.current_thread() is threading.main_thread():
             previous_term = signal.signal(signal.SIGTERM, _raise_interrupt)
         try:
-            if len(self.gpus) >= 2:
-                self._run_parallel(todo, total, results)
+            slots = self.executor.slots(self.gpus, len(todo))
+            if len(slots) >= 2:
+                self._run_parallel(todo, total, results, slots)
             else:
-                gpu = self.gpus[0] if self.gpus else None
                 for i, p in todo:
                     if self._stop.is_set():
                         break
-                    results[p.run.name] = self._execute(i, total, p, gpu)
+                    results[p.run.name] = self._execute(i, total, p, slots[0])
         except KeyboardInterrupt:
             self._interrupt()
             raise
@@ -239,7 +245,7 @@ class Runner:
             results.setdefault(p.run.name, state.record(p.run.name).get("status", "pending"))
         return results
 
-    def _run_parallel(self, todo, total, results) -> None:
+    def _run_parallel(self, todo, total, results, slots: list[str | None]) -> None:
         queue = list(todo)
         queue_lock = threading.Lock()
         errors: list[BaseException] = []
@@ -257,7 +263,7 @@ class Runner:
                     self._stop.set()
                     return
 
-        threads = [threading.Thread(target=worker, args=(g,), daemon=True) for g in self.gpus]
+        threads = [threading.Thread(target=worker, args=(g,), daemon=True) for g in slots]
         for t in threads:
             t.start()
         try:
@@ -304,13 +310,13 @@ class Runner:
                 return state.record(run.name).get("status", "pending")
         if p.action == "start" and run_dir.exists():
             shutil.rmtree(run_dir)
-        args = train_args(spec, p, budget)
-        cmd = self.train_command + args
+        cmd = self.train_command + train_args(spec, p, budget)
+        resume_cmd = self.train_command + train_args(spec, Plan(run, "resume", "requeued"), budget)
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
         package_root = str(Path(__file__).resolve().parent.parent)
         env["PYTHONPATH"] = os.pathsep.join([package_root] + [x for x in env.get("PYTHONPATH", "").split(os.pathsep) if x])
-        where = "the default device"
+        where = "the default device" if self.executor.name == "local" else f"{self.executor.name} ({self.executor.where})"
         if gpu is not None:
             env["CUDA_VISIBLE_DEVICES"] = gpu
             where = f"GPU {gpu}"
@@ -330,9 +336,7 @@ class Runner:
                 if self._stop.is_set():
                     state.update(run.name, status="pending")
                     return "pending"
-                # own session: a terminal's Ctrl-C reaches only the sweep, which forwards one SIGINT
-                proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                        env=env, start_new_session=True)
+                proc = self.executor.start(cmd, resume_cmd, env, log, run_dir)
                 self._procs[run.name] = proc
             rc = proc.wait()
             with self._procs_lock:
