@@ -92,10 +92,12 @@ def test_info_unknown_name(tmp_path, capsys):
 
 def test_list(deepmimic_dir, capsys):
     assert cli.main(["clips", "list", "--clips-dir", str(deepmimic_dir / "motions")]) == 0
-    rows = [line.split() for line in capsys.readouterr().out.splitlines()]
+    header, *rows = [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert header == ["clip", "source", "fits", "file"]
     by_name = {row[0]: row for row in rows}
-    assert by_name["slow_walk"][1:] == ["project", str(PROJECT_CLIPS / "slow_walk.txt")]
-    assert by_name["walk"][1:] == ["--clips-dir", str(deepmimic_dir / "motions" / "humanoid3d_walk.txt")]
+    assert by_name["slow_walk"][1:] == ["project", "humanoid", str(PROJECT_CLIPS / "slow_walk.txt")]
+    assert by_name["walk"][1:] == ["--clips-dir", "humanoid", str(deepmimic_dir / "motions" / "humanoid3d_walk.txt")]
+    assert by_name["dog3d_trot"][2] == "dog3d"  # offered, but marked as the dog's
     assert len(by_name) == len(rows)
 
 

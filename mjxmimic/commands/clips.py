@@ -46,9 +46,16 @@ def run_list(args: argparse.Namespace) -> int:
         return 0
     width = max(len(name) for name, _, _ in clips)
     swidth = max(len(label) for _, _, label in clips)
+    print(f"{'clip':<{width}}  {'source':<{swidth}}  {'fits':<8}  file")
     for name, path, label in clips:
-        print(f"{name:<{width}}  {label:<{swidth}}  {path}")
+        print(f"{name:<{width}}  {label:<{swidth}}  {fits(name):<8}  {path}")
     return 0
+
+
+def fits(name: str) -> str:
+    """The character a clip is for, by DeepMimic's file prefix: dog3d_* move the dog (not a
+    character of this package yet); the rest, the humanoid."""
+    return "dog3d" if name.startswith("dog3d_") else "humanoid"
 
 
 # ------------------------------------------------------------------------------------------ info
