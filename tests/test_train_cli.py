@@ -194,20 +194,25 @@ def test_max_seconds_stops_with_a_checkpoint_then_resume_finishes(tmp_path):
     assert json.loads((run_dir / "eval.json").read_text())["samples"] == 5120
 
 
-def test_ctrl_c_saves_a_checkpoint_and_exits_130(tmp_path):
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_ctrl_c_or_sigterm_saves_a_checkpoint_and_exits(tmp_path, sig, code):
+    """Ctrl-C, and SIGTERM (what schedulers and `timeout` send): a checkpoint, then a resume goes on."""
     run_dir = tmp_path / "run"
 
     def interrupt(iteration, metrics):
         if iteration == 3:
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), sig)
 
-    before = signal.getsignal(signal.SIGINT)
+    before = signal.getsignal(sig)
     out = train(_standin_config(), run_dir, env=StandInEnv(), progress=False, on_iteration=interrupt)
-    assert out.exit_code == 130 and out.reason == "interrupted"
+    assert out.exit_code == code and out.reason == "interrupted"
     assert out.env_steps == 3 * 512
     assert checkpoint.latest_checkpoint(run_dir) == 3 * 512
     assert not (run_dir / "eval.json").exists()
-    assert signal.getsignal(signal.SIGINT) is before  # handler restored
+    assert signal.getsignal(sig) is before  # handler restored
+    again = train(_standin_config(), run_dir, resume=True, env=StandInEnv(), progress=False)
+    steps = [r["step"] for r in read(run_dir) if "samples_per_s" in r]
+    assert again.reason == "done" and steps == [512 * i for i in range(1, 11)]
 
 
 def test_eval_command_on_a_run(tmp_path, capsys):

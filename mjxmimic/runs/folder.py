@@ -143,15 +143,19 @@ def write_config(run_dir: Path, config: config_lib.Config) -> None:
     config_lib.save(config, config_path(run_dir))
 
 
-def read_eval(run_dir: Path) -> dict[str, Any] | None:
-    """RUN/eval.json, or None when there is none; a one-line error when it is not JSON."""
-    path = eval_path(run_dir)
+def _read_json(path: Path) -> Any:
+    """A JSON file of the run, or None when there is none; a one-line error when it is not JSON."""
     if not path.is_file():
         return None
     try:
         return json.loads(path.read_text())
     except json.JSONDecodeError as err:
         raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+
+
+def read_eval(run_dir: Path) -> dict[str, Any] | None:
+    """RUN/eval.json, or None when there is none."""
+    return _read_json(eval_path(run_dir))
 
 
 def write_json_atomic(path: Path, data: Any) -> Path:
@@ -193,13 +197,7 @@ def require_checkpoint(run_dir: Path) -> int:
 
 def read_best(run_dir: Path) -> dict[str, Any] | None:
     """RUN/best.json, or None when the run has kept no best evaluation yet."""
-    path = best_path(run_dir)
-    if not path.is_file():
-        return None
-    try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    return _read_json(best_path(run_dir))
 
 
 CHECKPOINT_CHOICES = "best, latest or a number of samples"
