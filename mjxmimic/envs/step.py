@@ -2,7 +2,8 @@
 
     action -> PD targets (reference pose at the step's end) -> events (external forces)
     -> `substeps` of PD law + physics -> kinematics of the body and the reference
-    -> reward terms -> terminations -> observation terms
+    -> reward terms (the best over a dataset's clips with reward.combine=max; mixed with a task's
+       reward, mjxmimic.task.goals) -> terminations -> observation terms (+ the task's goal)
 
 The MJX env runs it vmapped under jit with jax.numpy; the CPU env runs it on MuJoCo C with numpy.
 Per-env motion state (`Motion`: clip id, clip time, step count, root offset) is explicit data that
