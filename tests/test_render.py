@@ -164,3 +164,16 @@ def test_png_out_writes_a_frame_strip(policy_file, tmp_path):
     assert strip.shape[0] == 128 and strip.shape[1] == 8 * 160  # 8 frames side by side
     first, last = strip[:, :160].astype(int), strip[:, -160:].astype(int)
     assert np.abs(first - last).mean() > 0.5  # different moments
+
+
+def test_a_gl_backend_without_its_library_is_one_line(policy_file, tmp_path):
+    from mjxmimic.portable.render import _osmesa_available
+
+    if _osmesa_available():
+        pytest.skip("OSMesa is installed here")
+    code = "import sys; from mjxmimic.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = dict(os.environ, MUJOCO_GL="osmesa")
+    result = subprocess.run([sys.executable, "-c", code, "render", str(policy_file), "--out", str(tmp_path / "v.mp4")],
+                            cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [result.stderr.strip()] and "no OSMESA library" in result.stderr

@@ -104,3 +104,24 @@ def test_a_policy_that_turns_nan_stops_with_one_line_and_keeps_the_good_checkpoi
 def test_no_hidden_layer_is_refused():
     with pytest.raises(UserError, match="ppo.policy_hidden': needs at least one layer"):
         config_lib.make_config("cpu", {"ppo.policy_hidden": ""})
+
+
+def test_a_full_disk_stops_with_one_line_and_keeps_the_last_checkpoint(tmp_path, monkeypatch):
+    import errno
+
+    run_dir = tmp_path / "run"
+    save = checkpoint.save
+
+    def save_until_full(run_dir_, ts, **kwargs):
+        if int(ts.env_steps) > 2560:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return save(run_dir_, ts, **kwargs)
+
+    monkeypatch.setattr(checkpoint, "save", save_until_full)
+    with pytest.raises(UserError, match=r"the disk is full .*checkpoint \(at 2,560 samples\) is kept") as err:
+        train(_config(), run_dir, env=StandInEnv(), progress=False)
+    assert "\n" not in str(err.value)
+    monkeypatch.setattr(checkpoint, "save", save)
+    assert checkpoint.kept_checkpoints(run_dir) == [2560]
+    out = train(_config(), run_dir, resume=True, env=StandInEnv(), progress=False)  # space freed: go on
+    assert out.reason == "done" and _steps(run_dir) == [512 * i for i in range(1, 11)]

@@ -72,6 +72,11 @@ def setup_gl() -> str:
     if want in ("", "glfw", "enable", "enabled", "on", "true", "1") and not (want and _has_display()):
         want = default_backend()
         os.environ["MUJOCO_GL"] = want
+    available = {"egl": _egl_available, "osmesa": _osmesa_available}
+    if want in available and not available[want]():
+        # before mujoco is imported: with the library missing, its import fails deep in PyOpenGL
+        raise UserError(f"MUJOCO_GL={want}, but no {want.upper()} library is installed: {APT_HINT}, "
+                        f"or unset MUJOCO_GL")
     if "mujoco" not in sys.modules:
         return want
     from mujoco.rendering.classic import gl_context

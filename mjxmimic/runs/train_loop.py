@@ -16,6 +16,7 @@ reached run.target_nr.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import math
 import signal
 import sys
@@ -262,6 +263,12 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                     save_checkpoint()
     except KeyboardInterrupt:
         reason = "interrupted"
+    except Exception as err:
+        if not _disk_full(err):
+            raise
+        log.close()
+        raise UserError(f"{run_dir}: the disk is full ({err}); training stopped, the last complete checkpoint "
+                        f"(at {last_ckpt_steps:,} samples) is kept: free space, then --resume") from None
 
     # Everything below also runs after Ctrl-C: the state in `ts` is whole (the step either
     # finished or never started; a donated-but-unassigned state cannot happen with the flag).
@@ -289,6 +296,11 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
     return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps,
                    iterations=iterations, summary=out, final_eval=final)
+
+
+def _disk_full(err: BaseException) -> bool:
+    """An error that says the disk is full (an OSError, or one a library wraps around it)."""
+    return (isinstance(err, OSError) and err.errno == errno.ENOSPC) or "No space left on device" in str(err)
 
 
 class _Progress:
