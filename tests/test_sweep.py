@@ -414,8 +414,24 @@ def test_cpu_sweep_failure_report_and_rerun(tmp_path, capsys):
     assert second < first / 3
 
 
-def test_slurm_executor_through_submitits_local_cluster(tmp_path, monkeypatch, capsys):
-    """The same spec through --executor slurm (submitit's local stand-in): one run finishes, the
+SLURM_SWEEP = textwrap.dedent("""
+    # the sweep through submitit's local cluster, in a process of its own (submitit and pytest's
+    # output capture do not mix)
+    import json, sys
+    from mjxmimic.ops import sweep
+    from mjxmimic.ops.sweep.executors import SlurmExecutor
+    spec_path, fake = sys.argv[1:3]
+    spec = sweep.load_spec(spec_path)
+    executor = SlurmExecutor(spec.out, cluster="local", time_limit_min=5)
+    results = sweep.Runner(spec, gpus=[], train_command=[sys.executable, fake], echo=lambda s: None,
+                           executor=executor).run()
+    sweep.write_report(spec, echo=lambda s: None)
+    print(json.dumps(results))
+""")
+
+
+def test_slurm_executor_through_submitits_local_cluster(tmp_path, monkeypatch):
+    """The same spec through the slurm executor (submitit's local stand-in): one run finishes, the
     failing one is isolated, and the report rows match the local runner's."""
     pytest.importorskip("submitit")
     fake = tmp_path / "fake_train.py"
@@ -423,24 +439,30 @@ def test_slurm_executor_through_submitits_local_cluster(tmp_path, monkeypatch, c
     (tmp_path / "fail.txt").write_text("{}")
     monkeypatch.setenv("FAKE_LOG", str(tmp_path / "calls.jsonl"))
     monkeypatch.setenv("FAKE_SLEEP", "0.5")
-    from mjxmimic.ops.sweep.executors import SlurmExecutor
-
     rows = {}
     for name in ("local", "slurm"):
-        spec = sweep.load_spec(write_spec(tmp_path / f"{name}.json", preset="cpu",
-                                          clips=["squat", str(tmp_path / "fail.txt")],
-                                          set={"run.total_samples": 256}, out=str(tmp_path / name)))
-        executor = SlurmExecutor(spec.out, cluster="local", time_limit_min=5) if name == "slurm" else None
-        t0 = time.time()
-        results = sweep.Runner(spec, gpus=[], train_command=[sys.executable, str(fake)], echo=lambda s: None,
-                               executor=executor).run()
-        assert sorted(results.values()) == ["failed", "finished"], results
-        sweep.write_report(spec, echo=lambda s: None)
-        rows[name] = [{k: v for k, v in r.items() if k not in ("wall_s", "samples_per_s")}
-                      for r in csv.DictReader((spec.out / "report.csv").open())]
-        if name == "slurm":
+        spec_path = write_spec(tmp_path / f"{name}.json", preset="cpu", clips=["squat", str(tmp_path / "fail.txt")],
+                               set={"run.total_samples": 256}, out=str(tmp_path / name))
+        spec = sweep.load_spec(spec_path)
+        if name == "local":
+            results = sweep.Runner(spec, gpus=[], train_command=[sys.executable, str(fake)], echo=lambda s: None).run()
+            sweep.write_report(spec, echo=lambda s: None)
+        else:
+            proc = subprocess.run([sys.executable, "-c", SLURM_SWEEP, str(spec_path), str(fake)], cwd=REPO,
+                                  capture_output=True, text=True, timeout=300)
+            assert proc.returncode == 0, proc.stderr[-2000:]
+            results = json.loads(proc.stdout.strip().splitlines()[-1])
             assert list((spec.out / "slurm").glob("*_submitted.pkl"))  # went through submitit
             assert "boom: made to fail" in (spec.out / "logs" / "fail-s0.log").read_text()
+        assert sorted(results.values()) == ["failed", "finished"], results
+        rows[name] = [{k: v for k, v in r.items() if k not in ("wall_s", "samples_per_s")}
+                      for r in csv.DictReader((spec.out / "report.csv").open())]
     assert rows["slurm"] == rows["local"]
+
+
+def test_slurm_options_need_a_slurm_cluster(tmp_path):
+    pytest.importorskip("submitit")
+    from mjxmimic.ops.sweep.executors import SlurmExecutor
+
     with pytest.raises(UserError, match="no Slurm cluster"):
         SlurmExecutor(tmp_path / "x", cluster="local", partition="gpu")
