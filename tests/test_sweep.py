@@ -266,7 +266,7 @@ FAKE_TRAIN = textwrap.dedent("""
     signal.signal(signal.SIGINT, on_int)
     with open(os.environ["FAKE_LOG"], "a") as f:
         f.write(json.dumps({"run": out.name, "gpu": os.environ.get("CUDA_VISIBLE_DEVICES"), "t": time.time(),
-                            "args": args}) + "\\n")
+                            "mem": os.environ.get("XLA_PYTHON_CLIENT_MEM_FRACTION"), "args": args}) + "\\n")
     if "fail" in (opt("--clip") or ""):
         print("step 1", flush=True)
         print("boom: made to fail", flush=True)
@@ -466,3 +466,24 @@ def test_slurm_options_need_a_slurm_cluster(tmp_path):
 
     with pytest.raises(UserError, match="no Slurm cluster"):
         SlurmExecutor(tmp_path / "x", cluster="local", partition="gpu")
+
+
+def test_runs_share_a_gpu_with_their_share_of_its_memory(tmp_path, monkeypatch):
+    from mjxmimic.ops.sweep.executors import LocalExecutor
+
+    fake = tmp_path / "fake_train.py"
+    fake.write_text(FAKE_TRAIN)
+    monkeypatch.setenv("FAKE_LOG", str(tmp_path / "calls.jsonl"))
+    monkeypatch.setenv("FAKE_SLEEP", "1.5")
+    monkeypatch.delenv("XLA_PYTHON_CLIENT_MEM_FRACTION", raising=False)
+    spec = sweep.load_spec(write_spec(tmp_path / "s.json", preset="cpu", clips=["squat"], seeds=[0, 1],
+                                      set={"run.total_samples": 256}, out=str(tmp_path / "out")))
+    results = sweep.Runner(spec, gpus=["0"], train_command=[sys.executable, str(fake)], echo=lambda s: None,
+                           executor=LocalExecutor(runs_per_gpu=2)).run()
+    assert set(results.values()) == {"finished"}
+    calls = [json.loads(line) for line in (tmp_path / "calls.jsonl").read_text().splitlines()]
+    assert {(c["gpu"], c["mem"]) for c in calls} == {("0", "0.45")}
+    starts = sorted(c["t"] for c in calls)
+    assert starts[1] - starts[0] < 1.4  # both at once on the one GPU
+    with pytest.raises(UserError, match="--runs-per-gpu 0"):
+        LocalExecutor(0)

@@ -42,6 +42,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "none: one after another; N: the first N GPUs; 0,2: those GPU ids")
     parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
                         help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
+    parser.add_argument("--runs-per-gpu", type=int, default=1, metavar="N",
+                        help="local: N runs share each GPU at a time, each with its share of the GPU's memory")
     parser.add_argument("--executor", choices=("local", "slurm"), default="local",
                         help="where runs execute: subprocesses here (default), or a Slurm job per run "
                              "through submitit (pip install 'mjxmimic[slurm]')")
@@ -88,7 +90,11 @@ def run(args: argparse.Namespace) -> int:
                 _echo(f"    mjxmimic train {shlex.join(sweep.train_args(spec, p, args.max_seconds))}")
         return 0
 
-    executor = None
+    from mjxmimic.ops.sweep.executors import LocalExecutor
+
+    executor = LocalExecutor(args.runs_per_gpu)
+    if len(gpus) * args.runs_per_gpu >= 2 and args.runs_per_gpu > 1:
+        mode = f"{args.runs_per_gpu} runs per GPU at a time on GPUs {','.join(gpus)}"
     if args.executor == "slurm":
         from mjxmimic.ops.sweep.executors import SlurmExecutor
 

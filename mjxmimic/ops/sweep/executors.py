@@ -24,15 +24,27 @@ from mjxmimic.runs import folder
 
 
 class LocalExecutor:
+    """`runs_per_gpu` runs share each GPU at a time, each limited to its share of the GPU's memory
+    (JAX would otherwise take 75 % of it for the first run alone)."""
+
     name = "local"
     where = "this machine"
+    MEMORY_FRACTION = 0.9  # of a GPU, split between the runs that share it
+
+    def __init__(self, runs_per_gpu: int = 1):
+        if runs_per_gpu < 1:
+            raise UserError(f"--runs-per-gpu {runs_per_gpu}: must be at least 1")
+        self.runs_per_gpu = runs_per_gpu
 
     def slots(self, gpus: list[str], runs: int) -> list[str | None]:
-        """One worker per GPU when two or more are visible, else one."""
-        return list(gpus) if len(gpus) >= 2 else [gpus[0] if gpus else None]
+        """A worker per GPU and run it holds, when that makes two or more; else one."""
+        ids = [g for g in gpus for _ in range(self.runs_per_gpu)]
+        return ids if len(ids) >= 2 else [gpus[0] if gpus else None]
 
     def start(self, start_cmd: list[str], resume_cmd: list[str], env: dict[str, str], log: Any,
               run_dir: Path) -> subprocess.Popen:
+        if self.runs_per_gpu > 1:
+            env = dict(env, XLA_PYTHON_CLIENT_MEM_FRACTION=f"{self.MEMORY_FRACTION / self.runs_per_gpu:.2f}")
         # own session: a terminal's Ctrl-C reaches only the sweep, which forwards one SIGINT
         return subprocess.Popen(start_cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 env=env, start_new_session=True)
