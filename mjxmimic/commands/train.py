@@ -24,7 +24,7 @@ from mjxmimic.runs import folder
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip", help="clip NAME or PATH (default: the config's clip)")
-    parser.add_argument("--task", choices=["heading", "strike"],
+    parser.add_argument("--task", choices=config_lib.TASKS,
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
                              "direction at a commanded speed; strike = hit a target (the spinkick)")
     parser.add_argument("--preset", default=None, choices=sorted(config_lib.PRESETS),

@@ -143,6 +143,7 @@ class Config:
 
 LR_SCHEDULES = ("constant", "linear", "cosine")
 STD_MODES = ("learned", "fixed")
+TASKS = ("heading", "strike")  # mjxmimic.task.goals
 
 PRESETS: dict[str, dict[str, Any]] = {
     # Small enough that 2 CPU cores show learning within three minutes (measured on the default
@@ -280,7 +281,7 @@ def validate(config: Config) -> None:
         (env.push_interval_s > env.push_duration_s, "env.push_interval_s", "must be longer than env.push_duration_s"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
         (config.reward.combine in ("own", "max"), "reward.combine", "must be 'own' or 'max'"),
-        (config.task.name in ("", "heading", "strike"), "task.name", "must be '' (none), 'heading' or 'strike'"),
+        (config.task.name in ("",) + TASKS, "task.name", f"must be '' (none) or one of {', '.join(TASKS)}"),
         (0 <= config.task.target_min_m <= config.task.target_max_m, "task.target_min_m",
          "must be >= 0 and at most task.target_max_m"),
         (config.task.target_radius_m > 0, "task.target_radius_m", "must be positive"),

@@ -64,12 +64,9 @@ class CpuEnv:
         return float(self.motion.time)
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Reference (qpos, qvel) at clip time t as the reward sees it: root shifted by the current
-        root offset, or, under a task, turned and moved to the character (mjxmimic.task.goals)."""
+        """Reference (qpos, qvel) at clip time t as the reward sees it (step.graded_reference)."""
         qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
-        if self.config.task.name:
-            return goals.align_reference(qpos, qvel, self.data.qpos, np)
-        return motion_lib.shift_root(qpos, self.motion.root_offset, np), qvel
+        return step_lib.graded_reference(self.spec, qpos, qvel, self.data.qpos, self.motion.root_offset, np)
 
     def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0),
                   event_seed: float = 0.0) -> np.ndarray:

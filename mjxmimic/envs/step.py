@@ -107,12 +107,16 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         paper_rewards=reward_terms.terms("paper"),
         control_dt=1.0 / env.control_hz,
         max_steps=int(round(env.episode_seconds * env.control_hz)),
-        observation_size=(obs_terms.observation_size(scene.model.nbody, env.observations, len(clips))
-                          + goals.GOAL_SIZE[config.task.name]),
+        observation_size=observation_size(config, scene.model.nbody, len(clips)),
         action_size=character.action_size,
         task_body=_task_body(config, scene),
         config=config,
     )
+
+
+def observation_size(config: Config, nbody: int, nclips: int = 1) -> int:
+    """The observation terms' numbers, then the task's goal."""
+    return obs_terms.observation_size(nbody, config.env.observations, nclips) + goals.GOAL_SIZE[config.task.name]
 
 
 def _task_body(config: Config, scene: Scene) -> int:
@@ -135,7 +139,9 @@ def goal(spec: Spec, motion: Motion, xp: Any) -> tuple[Any, Any]:
 def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
     """The observation terms, then the goal when there is a task (DEEPMIMIC.md)."""
     xp = physics.xp
-    onehot = (xp.arange(len(spec.lib.duration)) == motion.clip).astype(xp.float32)
+    onehot = None
+    if "skill" in spec.observations:
+        onehot = (xp.arange(len(spec.lib.duration)) == motion.clip).astype(xp.float32)
     obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp,
                             onehot)
     task = spec.config.task.name
@@ -187,6 +193,15 @@ def max_eval_horizon(spec: Spec) -> int:
     return max(bounds)
 
 
+def graded_reference(spec: Spec, ref_qpos: Any, ref_qvel: Any, sim_qpos: Any, root_offset: Any,
+                     xp: Any) -> tuple[Any, Any]:
+    """The reference pose that the reward grades: its root moved by the root offset, or, under a
+    task, turned and moved to the character (mjxmimic.task.goals.align_reference)."""
+    if spec.config.task.name:
+        return goals.align_reference(ref_qpos, ref_qvel, sim_qpos, xp)
+    return motion_lib.shift_root(ref_qpos, root_offset, xp), ref_qvel
+
+
 def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: Any) -> Any:
     """DeepMimic's multi-clip reward: the imitation reward against each clip of the library at
     the same phase, its reference turned and moved to the character, and the best of them."""
@@ -221,14 +236,11 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     sub = physics.step(state, targets, external_force)
     qpos, qvel = physics.qpos_qvel(sub.state)
     sim = physics.kinematics(qpos, qvel)
-    offset = motion.root_offset
-    if spec.config.reward.sync_root_position:
-        offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
     task = spec.config.task
-    if task.name:
-        ref = physics.kinematics(*goals.align_reference(ref_qpos, ref_qvel, qpos, xp))
-    else:
-        ref = physics.kinematics(motion_lib.shift_root(ref_qpos, offset, xp), ref_qvel)
+    offset = motion.root_offset
+    if spec.config.reward.sync_root_position and not task.name:  # a task's reference follows the character
+        offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
+    ref = physics.kinematics(*graded_reference(spec, ref_qpos, ref_qvel, qpos, offset, xp))
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
     if spec.config.reward.combine == "max":
         metrics["reward/own_clip"] = r

@@ -99,7 +99,7 @@ def restore(run_dir: Path, template, step: int | None = None):
             out = _restore_as_numpy(run_dir, step, targets)
             break
         except Exception as err:  # noqa: BLE001 (orbax and tensorstore raise many types)
-            why = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
+            why = _first_line(err)
             if i + 1 == len(steps):
                 raise UserError(f"{run_dir}: checkpoint {step} cannot be read ({why}), and no older one "
                                 f"can") from None
@@ -114,6 +114,11 @@ def restore(run_dir: Path, template, step: int | None = None):
         env_steps=learner["env_steps"],
     )
     return ts, dict(out["meta"])
+
+
+def _first_line(err: BaseException) -> str:
+    """Why a read failed, in a few words (orbax and tensorstore messages run over many lines)."""
+    return str(err).splitlines()[0][:200] if str(err) else type(err).__name__
 
 
 def _restore_as_numpy(run_dir: Path, step: int, targets: dict[str, Any], best: bool = False) -> dict[str, Any]:
@@ -142,7 +147,7 @@ def restore_policy(run_dir: Path, networks, observation_size: int, step: int,
     try:
         out = _restore_as_numpy(run_dir, step, targets, best)
     except Exception as err:  # noqa: BLE001 (orbax and tensorstore raise many types)
-        why = str(err).splitlines()[0][:200] if str(err) else type(err).__name__
+        why = _first_line(err)
         raise UserError(f"{run_dir}: checkpoint {step} cannot be read ({why}); "
                         f"--checkpoint picks another") from None
     try:

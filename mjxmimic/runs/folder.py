@@ -244,16 +244,13 @@ def load_policy_params(run_dir: Path, observation_size: int | None = None, actio
 
     if observation_size is None or action_size is None:
         from mjxmimic.core.character import load_character, resolve_xml
-        from mjxmimic.task.goals import GOAL_SIZE
-        from mjxmimic.task.observation import observation_size as observation_size_of
-
+        from mjxmimic.envs.step import observation_size as observation_size_of
         from mjxmimic.motion import dataset
 
         character = load_character(resolve_xml(config.character.xml))
         nclips = (len(dataset.load_dataset(config.clip.name, character).clips)
                   if dataset.is_dataset(config.clip.name) else 1)
-        observation_size = (observation_size_of(character.model.nbody, config.env.observations, nclips)
-                            + GOAL_SIZE[config.task.name])
+        observation_size = observation_size_of(config, character.model.nbody, nclips)
         action_size = character.action_size
     networks = make_networks(observation_size, action_size, config)
     return checkpoint.restore_policy(run_dir, networks, observation_size, step, best)

@@ -4,8 +4,8 @@ What it writes (names from mjxmimic.runs.folder): the resolved config before the
 a metrics line per iteration and per evaluation; a checkpoint every run.checkpoint_every
 samples, at the end, at run.max_seconds and on Ctrl-C; a checkpoint into RUN/best at every
 evaluation that beats the run's best so far (NR of its reward form, recorded in best.json, read
-back on resume); and at the end (done, or the target NR reached) eval.json: the final NR evaluation with the run's samples, wall-clock, steady-state
-samples/s and time to skill.
+back on resume); and at the end (done, or the target NR reached) eval.json: the final NR
+evaluation with the run's samples, wall-clock, steady-state samples/s and time to skill.
 
 run.max_seconds bounds one call (compilation included); the run stops cleanly with a checkpoint
 and continues on resume, up to run.total_samples. Time to skill is the wall-clock since the

@@ -33,7 +33,6 @@ from mjxmimic.core import quat
 from mjxmimic.core.config import TaskConfig
 from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
 
-NAMES = ("heading", "strike")
 GOAL_SIZE = {"": 0, "heading": 3, "strike": 4}
 # per-step metrics of each task (summed over an evaluation episode's running steps)
 METRICS = {"": (), "heading": ("reward/task", "task/speed_along", "task/speed"),
@@ -52,7 +51,7 @@ def heading_goal(task: TaskConfig, lib: Any, clip: Any, episode_time: Any, event
     """(world yaw of the commanded direction, commanded speed) at `episode_time`."""
     k = xp.floor(episode_time / task.resample_s)
     yaw = 2.0 * xp.pi * ((3.0 * event_seed + PLASTIC * (k + 1.0)) % 1.0)
-    speed = xp.where(task.speed > 0, task.speed, clip_speed(lib, clip, xp))
+    speed = task.speed if task.speed > 0 else clip_speed(lib, clip, xp)
     return yaw, xp.asarray(speed, xp.float32)
 
 
