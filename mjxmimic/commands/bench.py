@@ -14,6 +14,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default="gpu", choices=sorted(config_lib.PRESETS),
                         help="config preset to measure (default: gpu)")
     parser.add_argument("--clip", default=None, help="clip NAME or PATH (default: the preset's clip)")
+    parser.add_argument("--character", default=None, metavar="NAME|PATH",
+                        help="the simulated character: humanoid (default), dog3d, or an MJCF file")
     parser.add_argument("--num-envs", type=int, nargs="+", default=None,
                         help="env counts (default: 4096 8192 16384 65536 for gpu, 32 128 for cpu)")
     parser.add_argument("--kinds", nargs="+", default=["physics_only", "env_step", "train_loop"],
@@ -33,6 +35,8 @@ def run(args: argparse.Namespace) -> int:
     overrides = config_lib.parse_set_args(args.overrides)
     if args.clip:
         overrides["clip.name"] = args.clip
+    if args.character:
+        overrides["character.xml"] = args.character
     base = config_lib.make_config(args.preset, overrides)
     counts = args.num_envs or ([4096, 8192, 16384, 65536] if args.preset == "gpu" else [32, 128])
     character, clips, weights = load_env_inputs(base)

@@ -27,6 +27,15 @@ def _add_clips_dir(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clips-dir", metavar="DIR", default=None,
                         help="folder of clip files searched after the project's clips/ "
                              "(default: $MJXMIMIC_CLIPS, folders separated by the path separator)")
+    parser.add_argument("--character", default="humanoid", metavar="NAME|PATH",
+                        help="the character the clips move: humanoid (default), dog3d, or an MJCF file; "
+                             "its clip prefix finds clips by short name (dog3d: trot -> dog3d_trot.txt)")
+
+
+def _character(args: argparse.Namespace):
+    from mjxmimic.core.character import load_character, resolve_xml
+
+    return load_character(resolve_xml(args.character))
 
 
 # ------------------------------------------------------------------------------------------ list
@@ -39,7 +48,7 @@ def add_list_arguments(parser: argparse.ArgumentParser) -> None:
 def run_list(args: argparse.Namespace) -> int:
     from mjxmimic.motion.clip import list_clips, search_folders
 
-    clips = list_clips(args.clips_dir)
+    clips = list_clips(args.clips_dir, _character(args).clip_prefix)
     if not clips:
         where = ", ".join(str(folder) for _, folder in search_folders(args.clips_dir))
         print(f"no clips found (looked in: {where})")
@@ -48,14 +57,17 @@ def run_list(args: argparse.Namespace) -> int:
     swidth = max(len(label) for _, _, label in clips)
     print(f"{'clip':<{width}}  {'source':<{swidth}}  {'fits':<8}  file")
     for name, path, label in clips:
-        print(f"{name:<{width}}  {label:<{swidth}}  {fits(name):<8}  {path}")
+        print(f"{name:<{width}}  {label:<{swidth}}  {fits(path):<8}  {path}")
     return 0
 
 
-def fits(name: str) -> str:
-    """The character a clip is for, by DeepMimic's file prefix: dog3d_* move the dog (not a
-    character of this package yet); the rest, the humanoid."""
-    return "dog3d" if name.startswith("dog3d_") else "humanoid"
+def fits(path) -> str:
+    """The character a clip is for, by the file-name prefix of the package's characters
+    (dog3d_* move the dog); clips without one, such as the project's own, the humanoid."""
+    from mjxmimic.core.character import character_prefixes
+
+    return next((name for name, prefix in character_prefixes().items() if path.stem.startswith(prefix)),
+                "humanoid")
 
 
 # ------------------------------------------------------------------------------------------ info
@@ -143,15 +155,14 @@ def _run_dataset_info(args: argparse.Namespace, character) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from mjxmimic.core.character import load_character
     from mjxmimic.motion.clip import ClipError, load_clip, resolve_clip
     from mjxmimic.motion.dataset import is_dataset
 
-    character = load_character()
+    character = _character(args)
     if is_dataset(args.clip):
         return _run_dataset_info(args, character)
     try:
-        clip = load_clip(resolve_clip(args.clip, args.clips_dir), character)
+        clip = load_clip(resolve_clip(args.clip, args.clips_dir, character.clip_prefix), character)
     except ClipError as err:
         if args.json:
             print(json.dumps({"clip": args.clip, "valid": False, "error": str(err)}))
@@ -194,11 +205,10 @@ def run_render(args: argparse.Namespace) -> int:
     if args.fps <= 0:
         raise UserError(f"--fps {args.fps}: must be positive")
     setup_gl()
-    from mjxmimic.core.character import load_character
     from mjxmimic.motion.clip import load_clip, resolve_clip
 
-    character = load_character()
-    clip = load_clip(resolve_clip(args.clip, args.clips_dir), character)
+    character = _character(args)
+    clip = load_clip(resolve_clip(args.clip, args.clips_dir, character.clip_prefix), character)
     out = Path(args.out) if args.out is not None else Path(f"{clip.name}.mp4")
     info = render_clip(character, clip, out, seconds=args.seconds, fps=args.fps, width=args.width,
                        height=args.height)

@@ -24,6 +24,8 @@ from mjxmimic.runs import folder
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip", help="clip NAME or PATH (default: the config's clip)")
+    parser.add_argument("--character", metavar="NAME|PATH",
+                        help="the simulated character (character.xml): humanoid (default), dog3d, or an MJCF file")
     parser.add_argument("--task", choices=config_lib.TASKS,
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
                              "direction at a commanded speed; strike = hit a target (the spinkick)")
@@ -53,7 +55,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
     """(config, run folder, resuming) from the command line; nothing is written."""
     overrides = config_lib.parse_set_args(args.overrides or [])
     if args.resume is not None:
-        for flag in ("clip", "preset", "out", "name"):
+        for flag in ("clip", "character", "preset", "out", "name"):
             if getattr(args, flag) is not None:
                 raise UserError(f"--{flag} cannot be combined with --resume (the run's config.json decides)")
         run_dir = folder.require(args.resume)
@@ -73,6 +75,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         overrides["clip.name"] = args.clip
     if args.task is not None:
         overrides["task.name"] = args.task
+    if args.character is not None:
+        overrides["character.xml"] = args.character
     if args.seed is not None:
         overrides["run.seed"] = str(args.seed)
     config = config_lib.make_config(args.preset or default_preset(), overrides)

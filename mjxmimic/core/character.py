@@ -14,6 +14,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjxmimic.core.errors import UserError
+
 XML_DIR = Path(__file__).resolve().parent / "characters"
 DEFAULT_XML = XML_DIR / "humanoid.xml"
 
@@ -56,6 +58,7 @@ class Character:
     body_names: tuple[str, ...]  # bodies 1..nbody-1 (world excluded)
     end_effectors: tuple[int, ...]  # body ids
     body_sets: dict[str, tuple[int, ...]]  # named body-id sets (feet, hands, torso, ...)
+    clip_prefix: str = ""  # DeepMimic's file-name prefix of this character's clips ("humanoid3d_")
 
     @property
     def nq(self) -> int:
@@ -115,10 +118,32 @@ def default_fall_contact(clip_name: str) -> str:
     return "all-feet"
 
 
+def character_names() -> list[str]:
+    """The characters the package ships, by name (humanoid, dog3d, ...)."""
+    return sorted(p.stem for p in XML_DIR.glob("*.xml"))
+
+
+def character_prefixes() -> dict[str, str]:
+    """Each shipped character's clip file-name prefix, by name (those that have one)."""
+    out = {}
+    for name in character_names():
+        model = mujoco.MjModel.from_xml_path(str(XML_DIR / f"{name}.xml"))
+        if _has_text(model, "clip_prefix"):
+            out[name] = _custom_text(model, "clip_prefix")
+    return out
+
+
 def resolve_xml(xml: str | Path) -> Path:
-    """A path, or a file name in the package's xml/ folder."""
+    """A character's MJCF: a path, a file name in the package's characters/ folder, or a NAME
+    there (`humanoid`, `dog3d`)."""
     path = Path(xml)
-    return path if path.is_file() else XML_DIR / path
+    if path.is_file():
+        return path
+    if (XML_DIR / path).is_file():
+        return XML_DIR / path
+    if (XML_DIR / f"{xml}.xml").is_file():
+        return XML_DIR / f"{xml}.xml"
+    raise UserError(f"unknown character {str(xml)!r}: not a file, and not one of {', '.join(character_names())}")
 
 
 def physics_model(character: Character, physics_hz: int, solver_iterations: int,
@@ -200,7 +225,7 @@ def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
     body_sets = {}
     for i in range(model.ntext):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TEXT, i)
-        if name in ("clip_joint_order", "end_effectors"):
+        if name in ("clip_joint_order", "end_effectors", "clip_prefix"):
             continue
         body_sets[name] = _body_ids(model, _custom_text(model, name))
     body_names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody))
@@ -212,4 +237,9 @@ def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
         body_names=body_names,
         end_effectors=_body_ids(model, _custom_text(model, "end_effectors")),
         body_sets=body_sets,
+        clip_prefix=_custom_text(model, "clip_prefix") if _has_text(model, "clip_prefix") else "",
     )
+
+
+def _has_text(model: mujoco.MjModel, name: str) -> bool:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name) >= 0

@@ -14,7 +14,7 @@ from mjxmimic.core.errors import UserError
 
 @dataclasses.dataclass(frozen=True)
 class CharacterConfig:
-    xml: str = "humanoid.xml"  # a file in the package's xml/ folder, or a path
+    xml: str = "humanoid.xml"  # a character NAME (humanoid, dog3d), a file in core/characters/, or a path
 
 
 @dataclasses.dataclass(frozen=True)

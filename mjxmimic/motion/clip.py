@@ -125,9 +125,9 @@ def _z_up_to_y_up(v: np.ndarray) -> np.ndarray:
     return np.stack([v[..., 0], v[..., 2], -v[..., 1]], axis=-1)
 
 
-def _clip_name(path: Path) -> str:
+def _clip_name(path: Path, prefix: str = PREFIX) -> str:
     stem = path.stem
-    return stem[len(PREFIX):] if stem.startswith(PREFIX) and len(stem) > len(PREFIX) else stem
+    return stem[len(prefix):] if prefix and stem.startswith(prefix) and len(stem) > len(prefix) else stem
 
 
 def _is_number(v: object) -> bool:
@@ -157,7 +157,7 @@ def load_clip(path: str | Path, character: Character) -> Clip:
         data = json.loads(text, parse_constant=_parse_constant)
     except json.JSONDecodeError as err:
         raise ClipError(f"{path}: not JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
-    return clip_from_json(data, character, path=path, name=_clip_name(path))
+    return clip_from_json(data, character, path=path, name=_clip_name(path, character.clip_prefix))
 
 
 def clip_from_json(data: object, character: Character, path: Path | None = None, name: str = "clip") -> Clip:
@@ -364,23 +364,24 @@ def search_folders(user_dir: str | Path | None = None) -> list[tuple[str, Path]]
     return folders
 
 
-def _candidates(folder: Path, name: str) -> list[Path]:
+def _candidates(folder: Path, name: str, prefix: str) -> list[Path]:
     base = Path(name)
     out = []
     if base.suffix in SUFFIXES:
         out.append(folder / base)
     out += [folder / f"{name}.txt", folder / f"{name}.json",
-            folder / base.parent / f"{PREFIX}{base.name}.txt"]
+            folder / base.parent / f"{prefix}{base.name}.txt"]
     return out
 
 
-def resolve_clip(source: str | Path, user_dir: str | Path | None = None) -> Path:
+def resolve_clip(source: str | Path, user_dir: str | Path | None = None, prefix: str = PREFIX) -> Path:
     """A clip's file from a PATH or a NAME; raises ClipError listing where it looked.
 
     An existing file is used as it is. Otherwise NAME is looked up in the project's clips/ folder,
     then the user folder (`user_dir`, else each folder in $MJXMIMIC_CLIPS, separated by os.pathsep),
     then pybullet's pybullet_data/data/motions; in each folder NAME.txt, NAME.json or
-    humanoid3d_NAME.txt (so "walk" finds humanoid3d_walk.txt).
+    PREFIX + NAME.txt, the character's clip prefix (so "walk" finds humanoid3d_walk.txt, and "trot"
+    dog3d_trot.txt for the dog).
     """
     source = str(source)
     if not source:
@@ -392,7 +393,7 @@ def resolve_clip(source: str | Path, user_dir: str | Path | None = None) -> Path
         raise ClipError(f"{source}: is a directory, not a clip file")
     folders = search_folders(user_dir)
     for _, folder in folders:
-        for cand in _candidates(folder, source):
+        for cand in _candidates(folder, source, prefix):
             if cand.is_file():
                 return cand
     looked = "; ".join(f"{folder} ({label}{'' if folder.is_dir() else ', missing'})"
@@ -400,7 +401,7 @@ def resolve_clip(source: str | Path, user_dir: str | Path | None = None) -> Path
     if not any(label == "pybullet" for label, _ in folders):
         looked += "; pybullet_data (not installed)"
     raise ClipError(f"unknown clip {source!r}: no such file, and no {source}.txt, {source}.json or "
-                    f"{PREFIX}{source}.txt in: {looked}")
+                    f"{prefix}{source}.txt in: {looked}")
 
 
 def clip_label(source: str) -> str:
@@ -408,21 +409,21 @@ def clip_label(source: str) -> str:
     return Path(source).stem if ("/" in source or source.endswith(SUFFIXES)) else source
 
 
-def list_clips(user_dir: str | Path | None = None) -> list[tuple[str, Path, str]]:
+def list_clips(user_dir: str | Path | None = None, prefix: str = PREFIX) -> list[tuple[str, Path, str]]:
     """(name, path, source label) of every clip that `resolve_clip` can find by name.
 
-    Names drop the humanoid3d_ prefix; where a name occurs twice the first source wins, as in
-    `resolve_clip`.
+    Names drop the character's clip prefix (humanoid3d_, dog3d_); where a name occurs twice the
+    first source wins, as in `resolve_clip`.
     """
     found: dict[str, tuple[str, Path, str]] = {}
     for label, folder in search_folders(user_dir):
         if not folder.is_dir():
             continue
-        names = sorted({_clip_name(p) for p in folder.iterdir() if p.is_file() and p.suffix in SUFFIXES})
+        names = sorted({_clip_name(p, prefix) for p in folder.iterdir() if p.is_file() and p.suffix in SUFFIXES})
         for name in names:
             if name in found:
                 continue
-            for cand in _candidates(folder, name):
+            for cand in _candidates(folder, name, prefix):
                 if cand.is_file():
                     found[name] = (name, cand, label)
                     break
@@ -431,4 +432,4 @@ def list_clips(user_dir: str | Path | None = None) -> list[tuple[str, Path, str]
 
 def load_clip_source(source: str | Path, character: Character, user_dir: str | Path | None = None) -> Clip:
     """resolve_clip, then load_clip."""
-    return load_clip(resolve_clip(source, user_dir), character)
+    return load_clip(resolve_clip(source, user_dir, character.clip_prefix), character)

@@ -95,7 +95,8 @@ def load_dataset(source: str | Path, character: Character, user_dir: str | Path 
             raise UserError(f"{where}: weight {weight!r} must be a positive number")
         local = path.parent / entry["clip"]
         try:
-            clip = load_clip(local if local.is_file() else resolve_clip(entry["clip"], user_dir), character)
+            clip = load_clip(local if local.is_file() else resolve_clip(entry["clip"], user_dir, character.clip_prefix),
+                             character)
         except UserError as err:
             raise UserError(f"{where}: {err}") from None
         clips.append(clip)
