@@ -177,3 +177,21 @@ def test_a_gl_backend_without_its_library_is_one_line(policy_file, tmp_path):
                             cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [result.stderr.strip()] and "no OSMESA library" in result.stderr
+
+
+def test_render_stops_at_the_end_of_a_clip_that_does_not_loop(policy_file, character, tmp_path):
+    """The episode ends with the clip (done, not a fall): the video stops there and says so."""
+    import dataclasses
+
+    from mjxmimic.motion.clip import format_clip, load_clip_source
+
+    walk = load_clip_source("slow_walk", character)
+    once = dataclasses.replace(walk, loop=False, qpos=walk.qpos[:16], durations=walk.durations[:16])
+    clip_file = tmp_path / "once.txt"
+    clip_file.write_text(format_clip(once, character))
+    out = tmp_path / "once.mp4"
+    result = run_cli("render", policy_file, "--clip", clip_file, "--out", out, "--seconds", "4", "--width", "160",
+                     "--height", "128", "--no-ghost")
+    assert result.returncode == 0, result.stderr
+    assert "did not fall" in result.stdout
+    assert len(read_frames(out)) < 4 * 30 / 2

@@ -219,11 +219,72 @@ def run_render(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------ dispatcher
 
+# ---------------------------------------------------------------------------------------- import
+
+
+def add_import_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", metavar="FILE.bvh", help="motion capture file (BVH)")
+    parser.add_argument("--out", metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
+    parser.add_argument("--character", default="humanoid", metavar="NAME|PATH",
+                        help="the character to move (default: humanoid)")
+    parser.add_argument("--mapping", metavar="FILE.json", default=None,
+                        help="skeleton mapping file (default: the shipped one whose joint names the file has; "
+                             "see mjxmimic/motion/skeletons/)")
+    parser.add_argument("--start", type=float, default=0.0, help="first second of the recording to keep (default 0)")
+    parser.add_argument("--end", type=float, default=None, help="last second to keep (default: its end)")
+    parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the clip (default 60)")
+    parser.add_argument("--loop", choices=("wrap", "none"), default="none",
+                        help="wrap: the clip repeats (a gait cycle); none (default): it plays once")
+    parser.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def run_import(args: argparse.Namespace) -> int:
+    """BVH -> a validated clip file, written only when it reads back as one (mjxmimic.motion.bvh_import)."""
+    from pathlib import Path
+
+    from mjxmimic.motion.bvh import load_bvh
+    from mjxmimic.motion.bvh_import import find_mapping, import_bvh, load_mapping
+    from mjxmimic.motion.clip import clip_from_json, format_clip
+
+    character = _character(args)
+    name = Path(character.xml_path).stem
+    bvh = load_bvh(args.file)
+    mapping = load_mapping(Path(args.mapping), name) if args.mapping else find_mapping(bvh, name)
+    out = Path(args.out)
+    result = import_bvh(bvh, character, mapping, start=args.start, end=args.end, fps=args.fps,
+                        loop=args.loop == "wrap", name=out.stem)
+    text = format_clip(result.clip, character, comment=f"imported from {Path(args.file).name} by mjxmimic clips "
+                       f"import ({mapping.path.name}, {args.start:g} to {result.report['end_s']:g} s)")
+    clip_from_json(json.loads(text), character, out, out.stem)  # it must read back
+    if not out.parent.is_dir():
+        raise UserError(f"--out {out}: no folder {out.parent}")
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(out)
+    report = {"clip": str(out), "source": str(args.file), **result.report}
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    errors = ", ".join(f"{k} {v * 100:.1f}" for k, v in report["end_effector_error_m"].items())
+    print(f"{out}: {report['frames']} frames at {report['fps']:g} fps, {report['duration_s']:.2f} s "
+          f"(from {report['source_frames']} at {report['source_fps']:.0f} fps, {report['start_s']:g} to "
+          f"{report['end_s']:.2f} s), loop {args.loop}")
+    print(f"  mapping {mapping.path.name}, scale {report['scale']:.4f} m per unit, moved {report['ground_shift_m']:+.3f} m "
+          f"to the ground")
+    print(f"  end-effector error (cm, to the scaled source about the hips): {errors}")
+    skating = report["foot_skating_m_per_s"]
+    print(f"  foot skating {'-' if skating is None else f'{skating:.3f} m/s'} (planted feet), penetration "
+          f"{report['penetration_max_m'] * 100:.1f} cm, {report['frames_below_ground']} frames below ground, "
+          f"joint-limit hits {report['joint_limit_hits']} ({report['joint_limit_hit_rate'] * 100:.1f} % of hinge samples)")
+    return 0
+
+
 SUBCOMMANDS: dict[str, Subcommand] = {
     "list": Subcommand("list the clips that can be given by name", add_list_arguments, run_list),
     "info": Subcommand("frames, duration, loop, rate, travel and validity of a clip",
                        add_info_arguments, run_info),
     "render": Subcommand("headless video (mp4) of a clip's reference motion", add_render_arguments, run_render),
+    "import": Subcommand("a motion capture file (BVH) -> a clip for a character", add_import_arguments, run_import),
 }
 
 

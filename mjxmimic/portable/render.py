@@ -297,7 +297,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
             if on_frame is not None:
                 on_frame(info["steps"])
             if s.done:
-                info["fell"] = bool(s.fell or s.bad)
+                info["fell"] = s.failed
                 break
             obs = s.obs
 

@@ -1,0 +1,307 @@
+"""A BVH recording -> a clip for one of our characters (`mjxmimic clips import`).
+
+The source skeleton is mapped onto the character by a mapping file (`skeletons/*.json`, picked by
+the joint names it needs, or given): which source joint drives which character body, the
+source's up and forward axes, and the leg whose length sets the scale. Each mapped body takes its
+source joint's world orientation; where a body has one mapped child (a thigh, a forearm), the
+rest-pose bone directions of the two skeletons are aligned first, so that a leg that rests
+splayed in the capture still stands straight on the character. Hinges keep the twist about their
+axis (the rest passes on to the child) within their range; the root is scaled by the leg
+lengths' ratio; the clip is resampled, moved to the origin and put on the ground.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from mjxmimic.core import quat
+from mjxmimic.core.character import Character
+from mjxmimic.core.errors import UserError
+from mjxmimic.motion.bvh import Bvh
+from mjxmimic.motion.clip import Clip, lowest_points
+
+SKELETONS = Path(__file__).resolve().parent / "skeletons"
+AXIS_NAMES = {"x": 0, "y": 1, "z": 2}
+CONTACT_HEIGHT = 0.01  # m: a foot this close to the ground is taken to be planted (skating)
+
+
+@dataclasses.dataclass(frozen=True)
+class Mapping:
+    path: Path
+    up: np.ndarray  # (3,) the source's up axis, in source coordinates
+    forward: np.ndarray  # (3,) the direction the source skeleton faces at rest
+    bodies: dict[str, str]  # character body -> source joint
+    scale_chain: tuple[str, ...]  # character bodies from hip to ankle
+    root_anchor: tuple[str, ...]  # bodies whose mean position places the root (the hip joints)
+
+
+def _axis(text: object, where: str) -> np.ndarray:
+    if not isinstance(text, str) or len(text) != 2 or text[0] not in "+-" or text[1] not in AXIS_NAMES:
+        raise UserError(f"{where}: {text!r} is not an axis like '+y' or '-z'")
+    out = np.zeros(3)
+    out[AXIS_NAMES[text[1]]] = 1.0 if text[0] == "+" else -1.0
+    return out
+
+
+def load_mapping(path: Path, character_name: str) -> Mapping:
+    try:
+        data = json.loads(path.read_text())
+    except OSError as err:
+        raise UserError(f"{path}: cannot read the mapping file ({err.strerror})") from None
+    except json.JSONDecodeError as err:
+        raise UserError(f"{path}: the mapping file is not JSON ({err.msg}, line {err.lineno})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("characters"), dict):
+        raise UserError(f"{path}: expected an object with 'up', 'forward' and 'characters'")
+    target = data["characters"].get(character_name)
+    if not isinstance(target, dict) or not isinstance(target.get("bodies"), dict):
+        known = ", ".join(sorted(data["characters"])) or "none"
+        raise UserError(f"{path}: no mapping for character {character_name!r} (it maps: {known})")
+    up, forward = _axis(data.get("up"), f"{path}: up"), _axis(data.get("forward"), f"{path}: forward")
+    if abs(float(up @ forward)) > 0:
+        raise UserError(f"{path}: up and forward must be different axes")
+    chain = target.get("scale_chain")
+    if not isinstance(chain, list) or len(chain) < 2 or any(b not in target["bodies"] for b in chain):
+        raise UserError(f"{path}: {character_name}.scale_chain must list two or more mapped bodies (hip to ankle)")
+    anchor = target.get("root_anchor")
+    if not isinstance(anchor, list) or not anchor or any(b not in target["bodies"] for b in anchor):
+        raise UserError(f"{path}: {character_name}.root_anchor must list mapped bodies (the hip joints)")
+    return Mapping(path, up, forward, {str(k): str(v) for k, v in target["bodies"].items()}, tuple(chain),
+                   tuple(anchor))
+
+
+def find_mapping(bvh: Bvh, character_name: str) -> Mapping:
+    """The shipped mapping whose source joints the file has, all of them."""
+    names = set(bvh.names)
+    tried = []
+    for path in sorted(SKELETONS.glob("*.json")):
+        mapping = load_mapping(path, character_name)
+        missing = [j for j in mapping.bodies.values() if j not in names]
+        if not missing:
+            return mapping
+        tried.append(f"{path.stem} (no {missing[0]})")
+    raise UserError(f"{bvh.path}: no skeleton mapping fits its joints (tried {', '.join(tried)}); "
+                    f"write one like {SKELETONS / 'cmu_max.json'} and pass --mapping")
+
+
+def _source_to_world(mapping: Mapping) -> np.ndarray:
+    """(3, 3) rotation from the source's coordinates to the character's (z up, facing +x)."""
+    left = np.cross(mapping.up, mapping.forward)
+    return np.stack([mapping.forward, left, mapping.up])  # rows: world x, y, z in source terms
+
+
+def _matrix_quat(m: np.ndarray) -> np.ndarray:
+    out = np.zeros(4)
+    mujoco.mju_mat2Quat(out, np.ascontiguousarray(m, dtype=np.float64).reshape(-1))
+    return out
+
+
+def _between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation that turns direction a into direction b."""
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    axis, cos = np.cross(a, b), float(a @ b)
+    if cos < -1 + 1e-9:  # opposite: any perpendicular axis
+        perp = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        return np.concatenate([[0.0], perp / np.linalg.norm(perp)])
+    return quat.normalize(np.concatenate([[1.0 + cos], axis]))
+
+
+@dataclasses.dataclass(frozen=True)
+class Imported:
+    clip: Clip
+    report: dict
+
+
+def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float = 0.0, end: float | None = None,
+               fps: float = 60.0, loop: bool = False, name: str = "clip") -> Imported:
+    model = character.model
+    body_id = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in mapping.bodies}
+    for body, bid in body_id.items():
+        if bid < 0:
+            raise UserError(f"{mapping.path}: the character has no body {body!r}")
+    for joint in mapping.bodies.values():
+        if joint not in bvh.names:
+            raise UserError(f"{bvh.path}: no joint {joint!r}, which {mapping.path.name} maps")
+    if model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE or model.jnt_bodyid[0] != 1:
+        raise UserError(f"{character.xml_path}: the character's first body needs a free joint")
+    root = model.body(1).name
+    if mapping.bodies.get(root) is None:
+        raise UserError(f"{mapping.path}: the character's root body {root!r} is not mapped")
+    if fps <= 0:
+        raise UserError(f"--fps {fps:g}: must be positive")
+
+    length = (bvh.num_frames - 1) * bvh.frame_time
+    stop = length if end is None else end
+    if not 0 <= start < stop <= length + 1e-9:
+        raise UserError(f"{bvh.path}: --start {start:g} --end {stop:g} s is not within its {length:.3f} s")
+    first, last = int(np.floor(start / bvh.frame_time)), int(np.ceil(stop / bvh.frame_time - 1e-9))
+    src_pos, src_rot = bvh.forward_kinematics()
+    src_pos, src_rot = src_pos[first:last + 1], src_rot[first:last + 1]
+    times = np.arange(first, last + 1) * bvh.frame_time
+
+    to_world = _source_to_world(mapping)
+    q_world = _matrix_quat(to_world)
+    rest = bvh.rest_positions()
+    joint_of = {b: bvh.index(j) for b, j in mapping.bodies.items()}
+
+    # the character at rest (every joint at zero) for bone directions and frames
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    rest_xpos, rest_xquat = data.xpos.copy(), data.xquat.copy()
+
+    def mapped_parent(b: int) -> int | None:
+        p = int(model.body_parentid[b])
+        while p > 0 and model.body(p).name not in mapping.bodies:
+            p = int(model.body_parentid[p])
+        return p if p > 0 else None
+
+    children: dict[int, list[int]] = {body_id[b]: [] for b in mapping.bodies}
+    for b in mapping.bodies:
+        parent = mapped_parent(body_id[b])
+        if parent is not None:
+            children[parent].append(body_id[b])
+
+    # desired world orientation of each mapped body, frame by frame
+    src_in_world = quat.mul(quat.mul(q_world, src_rot), quat.conj(q_world))
+    desired: dict[int, np.ndarray] = {}
+    for b, bid in body_id.items():
+        align = np.array([1.0, 0.0, 0.0, 0.0])
+        if len(children[bid]) == 1:
+            child = children[bid][0]
+            target_bone = rest_xpos[child] - rest_xpos[bid]
+            source_bone = to_world @ (rest[joint_of[model.body(child).name]] - rest[joint_of[b]])
+            if np.linalg.norm(target_bone) > 1e-6 and np.linalg.norm(source_bone) > 1e-6:
+                align = _between(target_bone, source_bone)
+        desired[bid] = quat.mul(src_in_world[:, joint_of[b]], quat.mul(align, rest_xquat[bid]))
+
+    # joint by joint from the root: each takes what its parent left over
+    frames = len(times)
+    qpos = np.tile(model.qpos0, (frames, 1))
+    world = np.zeros((frames, model.nbody, 4))
+    world[:, 0, 0] = 1.0
+    limit_hits, hinge_samples = 0, 0
+    for b in range(1, model.nbody):
+        parent_frame = quat.mul(world[:, model.body_parentid[b]], model.body_quat[b])
+        joints = [j for j in range(model.njnt) if model.jnt_bodyid[j] == b]
+        if not joints:
+            world[:, b] = parent_frame
+            continue
+        if len(joints) > 1:
+            raise UserError(f"{character.xml_path}: body {model.body(b).name!r} has more than one joint")
+        j, adr = joints[0], model.jnt_qposadr[joints[0]]
+        want = desired.get(b)
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            qpos[:, adr + 3:adr + 7] = want
+            local = want
+        elif want is None:
+            local = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))  # an unmapped joint stays at zero
+            if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                qpos[:, adr] = 0.0
+        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL:
+            local = quat.normalize(quat.mul(quat.conj(parent_frame), want))
+            qpos[:, adr:adr + 4] = local
+        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+            full = quat.mul(quat.conj(parent_frame), want)
+            axis = model.jnt_axis[j]
+            angle = 2 * np.arctan2(full[:, 1:] @ axis, full[:, 0])
+            angle = (angle + np.pi) % (2 * np.pi) - np.pi
+            if model.jnt_limited[j]:
+                low, high = model.jnt_range[j]
+                clipped = np.clip(angle, low, high)
+                limit_hits += int(np.sum(np.abs(clipped - angle) > 1e-6))
+                angle = clipped
+            hinge_samples += frames
+            qpos[:, adr] = angle
+            local = np.concatenate([np.cos(angle / 2)[:, None], np.sin(angle / 2)[:, None] * axis], axis=1)
+        else:
+            raise UserError(f"{character.xml_path}: joint {model.joint(j).name!r} is neither free, ball nor hinge")
+        world[:, b] = quat.mul(parent_frame, local)
+
+    # root position: the anchor (the hips' mean) where the source's is, scaled by the legs' ratio
+    chain = [body_id[b] for b in mapping.scale_chain]
+    target_leg = sum(np.linalg.norm(rest_xpos[c] - rest_xpos[p]) for p, c in zip(chain, chain[1:]))
+    source_leg = sum(np.linalg.norm(rest[joint_of[model.body(c).name]] - rest[joint_of[model.body(p).name]])
+                     for p, c in zip(chain, chain[1:]))
+    scale = float(target_leg / source_leg)
+    anchor_src = np.mean([src_pos[:, joint_of[b]] for b in mapping.root_anchor], axis=0) @ to_world.T * scale
+    anchor_offset = np.mean([rest_xpos[body_id[b]] - rest_xpos[1] for b in mapping.root_anchor], axis=0)
+    qpos[:, 0:3] = anchor_src - quat.rotate(qpos[:, 3:7], np.broadcast_to(anchor_offset, (frames, 3)))
+
+    qpos = _resample(model, qpos, times - times[0], fps, stop - start)
+    qpos[:, 0:2] -= qpos[0, 0:2]
+    lowest = lowest_points(character, qpos)
+    ground_shift = -float(np.percentile(lowest, 5))
+    qpos[:, 2] += ground_shift
+    lowest += ground_shift
+
+    durations = np.full(qpos.shape[0], 1.0 / fps)
+    clip = Clip(name=name, path=None, loop=loop, durations=durations, qpos=qpos)
+    report = _report(character, mapping, clip, bvh, src_pos, times - times[0], scale, to_world, joint_of, lowest)
+    report.update(ground_shift_m=ground_shift, joint_limit_hits=limit_hits,
+                  joint_limit_hit_rate=limit_hits / max(hinge_samples, 1), source_frames=frames,
+                  source_fps=1.0 / bvh.frame_time, start_s=start, end_s=stop)
+    return Imported(clip, report)
+
+
+def _resample(model: mujoco.MjModel, qpos: np.ndarray, times: np.ndarray, fps: float, length: float) -> np.ndarray:
+    """qpos at 0, 1/fps, ... up to `length`: positions and angles linearly, quaternions by slerp."""
+    count = int(np.floor(length * fps + 1e-6)) + 1
+    out_times = np.minimum(np.arange(count) / fps, times[-1])
+    i = np.clip(np.searchsorted(times, out_times, side="right") - 1, 0, len(times) - 2)
+    w = ((out_times - times[i]) / (times[i + 1] - times[i]))[:, None]
+    out = (1 - w) * qpos[i] + w * qpos[i + 1]
+    for j in range(model.njnt):
+        adr = model.jnt_qposadr[j]
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            adr += 3
+        elif model.jnt_type[j] != mujoco.mjtJoint.mjJNT_BALL:
+            continue
+        a, b = qpos[i, adr:adr + 4], qpos[i + 1, adr:adr + 4]
+        b = np.where(np.sum(a * b, axis=1, keepdims=True) < 0, -b, b)
+        out[:, adr:adr + 4] = quat.normalize(quat.slerp(a, b, w))
+    return out
+
+
+def _report(character: Character, mapping: Mapping, clip: Clip, bvh: Bvh, src_pos: np.ndarray, src_times: np.ndarray,
+            scale: float, to_world: np.ndarray, joint_of: dict[str, int], lowest: np.ndarray) -> dict:
+    """End-effector error against the scaled source (both relative to the root anchor), foot skating,
+    penetration."""
+    model = character.model
+    data = mujoco.MjData(model)
+    positions = np.zeros((clip.num_frames, model.nbody, 3))
+    for f, q in enumerate(clip.qpos):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        positions[f] = data.xpos
+    times = np.arange(clip.num_frames) / clip.fps
+    anchor_src = np.mean([src_pos[:, joint_of[b]] for b in mapping.root_anchor], axis=0)
+    anchor_tgt = np.mean([positions[:, model.body(b).id] for b in mapping.root_anchor], axis=0)
+    errors = {}
+    for b in character.end_effectors:
+        name = model.body(b).name
+        if name not in joint_of:
+            continue
+        rel_src = (src_pos[:, joint_of[name]] - anchor_src) @ to_world.T * scale
+        rel_src = np.stack([np.interp(times, src_times, rel_src[:, k]) for k in range(3)], axis=1)
+        rel_tgt = positions[:, b] - anchor_tgt
+        errors[name] = float(np.mean(np.linalg.norm(rel_tgt - rel_src, axis=1)))
+    skating = []
+    for b in character.body_sets.get("feet", ()):
+        height = lowest_points(character, clip.qpos, (b,))
+        speed = np.linalg.norm(np.diff(positions[:, b, :2], axis=0), axis=1) * clip.fps
+        planted = (height[1:] < CONTACT_HEIGHT) & (height[:-1] < CONTACT_HEIGHT)
+        if planted.any():
+            skating.append(float(np.mean(speed[planted])))
+    return {
+        "frames": clip.num_frames, "fps": round(clip.fps, 9), "duration_s": round(clip.duration, 9), "scale": scale,
+        "mapping": str(mapping.path),
+        "end_effector_error_m": errors,
+        "end_effector_error_mean_m": float(np.mean(list(errors.values()))) if errors else None,
+        "foot_skating_m_per_s": float(np.mean(skating)) if skating else None,
+        "penetration_max_m": float(max(0.0, -lowest.min())),
+        "frames_below_ground": int(np.sum(lowest < -0.005)),
+    }

@@ -1,0 +1,308 @@
+"""BVH import: the parser and its errors, forward kinematics, mapping onto the humanoid, the CLI.
+
+The tests write their own small BVH files: a CMU-like skeleton in the MotionBuilder conversion's
+joint names (legs resting splayed, arms down, y up, facing +z) walking forward.
+"""
+
+import json
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjxmimic import cli
+from mjxmimic.core import quat
+from mjxmimic.core.character import load_character
+from mjxmimic.core.errors import UserError
+from mjxmimic.motion.bvh import BvhError, load_bvh, parse_bvh
+from mjxmimic.motion.bvh_import import find_mapping, import_bvh, load_mapping
+from mjxmimic.motion.clip import load_clip
+
+# name, parent, offset (y up, facing +z, +x to the skeleton's left); every joint has ZXY rotations
+SKELETON = [
+    ("Hips", None, (0, 0, 0)),
+    ("LeftUpLeg", "Hips", (9, -5, 0)), ("LeftLeg", "LeftUpLeg", (3, -40, 0)), ("LeftFoot", "LeftLeg", (3, -40, 0)),
+    ("RightUpLeg", "Hips", (-9, -5, 0)), ("RightLeg", "RightUpLeg", (-3, -40, 0)),
+    ("RightFoot", "RightLeg", (-3, -40, 0)),
+    ("Spine", "Hips", (0, 10, 0)), ("Spine1", "Spine", (0, 20, 0)), ("Neck", "Spine1", (0, 20, 0)),
+    ("Head", "Neck", (0, 8, 0)),
+    ("LeftShoulder", "Spine1", (4, 18, 0)), ("LeftArm", "LeftShoulder", (14, 0, 0)),
+    ("LeftForeArm", "LeftArm", (0, -28, 0)), ("LeftHand", "LeftForeArm", (0, -25, 0)),
+    ("RightShoulder", "Spine1", (-4, 18, 0)), ("RightArm", "RightShoulder", (-14, 0, 0)),
+    ("RightForeArm", "RightArm", (0, -28, 0)), ("RightHand", "RightForeArm", (0, -25, 0)),
+]
+END_SITES = {"LeftFoot": (0, -5, 15), "RightFoot": (0, -5, 15), "Head": (0, 10, 0), "LeftHand": (0, -8, 0),
+             "RightHand": (0, -8, 0)}
+NAMES = [name for name, _, _ in SKELETON]
+FPS = 30
+
+
+def bvh_text(frames: np.ndarray, frame_time: float = 1 / FPS) -> str:
+    """The BVH file of SKELETON with the given (F, 6 + 3 x 18) channel values."""
+    lines = ["HIERARCHY"]
+
+    def block(name: str, depth: int) -> None:
+        pad = "  " * depth
+        parent = next(p for n, p, _ in SKELETON if n == name)
+        offset = next(o for n, _, o in SKELETON if n == name)
+        lines.append(f"{pad}{'ROOT' if parent is None else 'JOINT'} {name}")
+        lines.append(f"{pad}{{")
+        lines.append(f"{pad}  OFFSET {offset[0]} {offset[1]} {offset[2]}")
+        channels = "6 Xposition Yposition Zposition" if parent is None else "3"
+        lines.append(f"{pad}  CHANNELS {channels} Zrotation Xrotation Yrotation")
+        for child, p, _ in SKELETON:
+            if p == name:
+                block(child, depth + 1)
+        if name in END_SITES:
+            x, y, z = END_SITES[name]
+            lines.extend([f"{pad}  End Site", f"{pad}  {{", f"{pad}    OFFSET {x} {y} {z}", f"{pad}  }}"])
+        lines.append(f"{pad}}}")
+
+    block("Hips", 0)
+    lines += ["MOTION", f"Frames: {len(frames)}", f"Frame Time: {frame_time:.8f}"]
+    lines += [" ".join(f"{v:.5f}" for v in row) for row in frames]
+    return "\n".join(lines) + "\n"
+
+
+def column(joint: str, axis: str) -> int:
+    """Column of a joint's rotation channel (Z, X or Y) in a frame row."""
+    return 3 + 3 * NAMES.index(joint) + "ZXY".index(axis)
+
+
+def walking_frames(seconds: float = 2.0) -> np.ndarray:
+    """Hips moving +z at 100 units/s, thighs swinging about the left axis (x), knees bending,
+    the arms swinging, the chest turning a little."""
+    t = np.arange(int(seconds * FPS) + 1) / FPS
+    frames = np.zeros((len(t), 3 + 3 * len(SKELETON)))
+    frames[:, 1], frames[:, 2] = 90.0, 100.0 * t
+    swing = 25 * np.sin(2 * np.pi * t)
+    for side, sign in (("Left", 1), ("Right", -1)):
+        frames[:, column(f"{side}UpLeg", "X")] = sign * swing
+        frames[:, column(f"{side}UpLeg", "Z")] = -sign * 5.0  # brings the splayed leg nearly straight
+        frames[:, column(f"{side}Leg", "X")] = 30 * (1 + sign * np.cos(2 * np.pi * t))
+        frames[:, column(f"{side}Arm", "X")] = -sign * swing
+    frames[:, column("Spine1", "Y")] = 10 * np.sin(2 * np.pi * t)
+    return frames
+
+
+@pytest.fixture(scope="module")
+def walk_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("bvh") / "walk.bvh"
+    path.write_text(bvh_text(walking_frames()))
+    return path
+
+
+# ------------------------------------------------------------------------------------------ parser
+
+
+def test_parse(walk_file):
+    bvh = load_bvh(walk_file)
+    assert bvh.names == NAMES and bvh.num_frames == 2 * FPS + 1
+    assert bvh.frame_time == 1 / FPS  # the file's 0.03333333 read as 1/30
+    assert bvh.joints[0].channels[:3] == ("Xposition", "Yposition", "Zposition")
+    assert bvh.joints[NAMES.index("LeftLeg")].parent == NAMES.index("LeftUpLeg")
+    np.testing.assert_allclose(bvh.joints[NAMES.index("LeftFoot")].end_site, [0, -5, 15])
+
+
+def test_rotation_channels_compose_in_the_listed_order(tmp_path):
+    frames = np.zeros((1, 3 + 3 * len(SKELETON)))
+    frames[0, column("LeftUpLeg", "Z"):column("LeftUpLeg", "Z") + 3] = (10, 20, 30)
+    bvh = parse_bvh(bvh_text(frames), tmp_path / "x.bvh")
+    expected = np.zeros(4)
+    mujoco.mju_euler2Quat(expected, np.radians([10, 20, 30]), "zxy")  # intrinsic z, then x, then y
+    np.testing.assert_allclose(bvh.local_rotations()[0, NAMES.index("LeftUpLeg")], expected, atol=1e-12)
+
+
+def test_forward_kinematics(tmp_path):
+    frames = np.zeros((2, 3 + 3 * len(SKELETON)))
+    frames[:, :3] = (1, 90, 2)
+    frames[1, column("LeftUpLeg", "X")] = 90.0  # thigh about the left axis: its bone turns from down to -z
+    bvh = parse_bvh(bvh_text(frames), tmp_path / "x.bvh")
+    pos, _ = bvh.forward_kinematics()
+    rest = bvh.rest_positions()
+    np.testing.assert_allclose(pos[0] - pos[0, 0], rest, atol=1e-9)  # channels zero = the rest pose
+    hip, knee = NAMES.index("LeftUpLeg"), NAMES.index("LeftLeg")
+    np.testing.assert_allclose(pos[0, hip], [1 + 9, 90 - 5, 2], atol=1e-9)
+    np.testing.assert_allclose(pos[1, knee] - pos[1, hip], [3, 0, -40], atol=1e-9)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: "", "the file is empty"),
+    (lambda t: t.replace("HIERARCHY", "HIERARCHIE"), ":1: expected 'HIERARCHY', found 'HIERARCHIE'"),
+    (lambda t: t.replace("OFFSET 3 -40 0", "OFFSET 3 -4o 0"), "LeftLeg's OFFSET: '-4o' is not a number"),
+    (lambda t: t.replace("CHANNELS 3 Zrotation", "CHANNELS 3 Wrotation", 1), "unknown channel 'Wrotation'"),
+    (lambda t: t.replace("Frames: 3", "Frames: 4"), "expected 4 frames x 60 channels = 240"),
+    (lambda t: t.rsplit("\n", 2)[0] + "\n", "expected 3 frames x 60 channels"),
+    (lambda t: t.replace("Frame Time: 0.03333333", "Frame Time: 0"), "a frame time of 0 s"),
+    (lambda t: t[:t.index("MOTION")], "the file ends where 'MOTION' was expected"),
+    (lambda t: t.replace("JOINT Spine\n", "JOINT LeftLeg\n"), "joint 'LeftLeg' is defined twice"),
+])
+def test_parse_errors_name_the_file_and_line(tmp_path, edit, message):
+    path = tmp_path / "bad.bvh"
+    path.write_text(edit(bvh_text(np.zeros((3, 60)))))
+    with pytest.raises(BvhError, match=None) as err:
+        load_bvh(path)
+    assert str(err.value).startswith(str(path)) and message in str(err.value), str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(BvhError, match="no such file"):
+        load_bvh(tmp_path / "none.bvh")
+
+
+def test_a_value_that_is_not_a_number(tmp_path):
+    text = bvh_text(np.zeros((3, 60)))
+    lines = text.splitlines()
+    lines[-2] = lines[-2].replace("0.00000", "nan", 1)
+    path = tmp_path / "nan.bvh"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(BvhError, match=f"{path}:{len(lines) - 1}: frame 1: a value that is not finite"):
+        load_bvh(path)
+
+
+# ---------------------------------------------------------------------------------------- retarget
+
+
+@pytest.fixture(scope="module")
+def imported(walk_file):
+    bvh = load_bvh(walk_file)
+    character = load_character()
+    return bvh, character, import_bvh(bvh, character, find_mapping(bvh, "humanoid"), fps=60)
+
+
+def _body_positions(character, qpos):
+    data = mujoco.MjData(character.model)
+    out = []
+    for q in qpos:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(character.model, data)
+        out.append((data.xpos.copy(), data.xquat.copy()))
+    return np.array([p for p, _ in out]), np.array([q for _, q in out])
+
+
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def test_bones_point_where_the_source_bones_point(imported):
+    """Thighs and upper arms of the humanoid follow the source's bone directions frame by frame
+    (source y up, facing +z -> z up, facing +x), although the source's legs rest splayed; the
+    shins nearly (the knee hinge turns about the thigh's own axis, which the splay tilts)."""
+    bvh, character, result = imported
+    assert result.report["mapping"].endswith("cmu_mb.json")  # picked by the joint names
+    src, _ = bvh.forward_kinematics()
+    to_world = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]])  # rows: world x, y, z in source axes
+    # the clip is at 60 fps and the source at 30: every other clip frame is a source frame
+    pos, _ = _body_positions(character, result.clip.qpos[::2])
+    model = character.model
+
+    def angles(body, child, joint, joint_child):
+        b, c = model.body(body).id, model.body(child).id
+        target = _unit(pos[:, c] - pos[:, b])
+        source = _unit((src[:, NAMES.index(joint_child)] - src[:, NAMES.index(joint)]) @ to_world.T)
+        return np.arccos(np.clip(np.sum(target * source, axis=1), -1, 1))
+
+    for bone in [("left_hip", "left_knee", "LeftUpLeg", "LeftLeg"), ("right_hip", "right_knee", "RightUpLeg", "RightLeg"),
+                 ("left_shoulder", "left_elbow", "LeftArm", "LeftForeArm")]:
+        assert angles(*bone).max() < 1e-3, bone
+    shin = angles("right_knee", "right_ankle", "RightLeg", "RightFoot")
+    assert shin.max() < 0.05 and shin.mean() < 0.02
+
+
+def test_root_scale_ground_and_resampling(imported):
+    bvh, character, result = imported
+    report, clip = result.report, result.clip
+    model = character.model
+    target_leg = np.linalg.norm(model.body("right_knee").pos) + np.linalg.norm(model.body("right_ankle").pos)
+    assert math.isclose(report["scale"], target_leg / (2 * math.hypot(3, 40)), rel_tol=1e-9)
+    assert clip.num_frames == 121 and math.isclose(clip.fps, 60.0)
+    np.testing.assert_allclose(clip.qpos[0, :2], 0.0, atol=1e-12)  # starts at the origin
+    # 100 units/s forward (+z) in the source is scale x 100 m/s along +x
+    speed = (clip.qpos[-1, 0] - clip.qpos[0, 0]) / clip.duration
+    assert math.isclose(speed, 100 * report["scale"], rel_tol=0.02)
+    assert abs(clip.qpos[-1, 1]) < 0.01
+    assert report["penetration_max_m"] < 0.02 and report["frames_below_ground"] <= 0.05 * clip.num_frames
+    assert report["end_effector_error_m"]["left_ankle"] < 0.03
+    assert report["joint_limit_hits"] == 0
+
+
+def test_hinge_limits_are_kept_and_counted(tmp_path):
+    frames = walking_frames()
+    frames[:, column("LeftLeg", "X")] = -40.0  # the knee bent the wrong way
+    path = tmp_path / "bent.bvh"
+    path.write_text(bvh_text(frames))
+    bvh = load_bvh(path)
+    character = load_character()
+    result = import_bvh(bvh, character, find_mapping(bvh, "humanoid"))
+    knee = character.model.joint("left_knee")
+    assert result.report["joint_limit_hits"] == bvh.num_frames
+    angles = result.clip.qpos[:, knee.qposadr[0]]
+    assert np.all(angles >= knee.range[0] - 1e-9) and np.all(angles <= knee.range[1] + 1e-9)
+
+
+def test_mapping_errors(tmp_path, walk_file):
+    bvh = load_bvh(walk_file)
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    with pytest.raises(UserError, match="the mapping file is not JSON"):
+        load_mapping(bad, "humanoid")
+    bad.write_text(json.dumps({"up": "+y", "forward": "+z", "characters": {"humanoid": {"bodies": {}}}}))
+    with pytest.raises(UserError, match="scale_chain must list"):
+        load_mapping(bad, "humanoid")
+    with pytest.raises(UserError, match="no mapping for character 'dog3d'"):
+        find_mapping(bvh, "dog3d")
+    renamed = tmp_path / "renamed.bvh"
+    renamed.write_text(walk_file.read_text().replace("LeftUpLeg", "LThigh"))
+    with pytest.raises(UserError, match=r"no skeleton mapping fits its joints \(tried cmu_max \(no"):
+        find_mapping(load_bvh(renamed), "humanoid")
+
+
+# --------------------------------------------------------------------------------------------- CLI
+
+
+def test_import_command(walk_file, tmp_path, capsys):
+    out = tmp_path / "walk.txt"
+    assert cli.main(["clips", "import", str(walk_file), "--out", str(out), "--start", "0.5", "--end", "1.5",
+                     "--fps", "30", "--loop", "wrap", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["frames"] == 31 and report["clip"] == str(out)
+    clip = load_clip(out, load_character())
+    assert clip.loop and clip.num_frames == 31 and math.isclose(clip.duration, 1.0, rel_tol=1e-6)
+    assert cli.main(["clips", "info", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["valid"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--start", "1.5", "--end", "1.0"], "--start 1.5 --end 1 s is not within its 2.000 s"),
+    (["--end", "9"], "is not within its 2.000 s"),
+    (["--fps", "0"], "--fps 0: must be positive"),
+    (["--mapping", "nowhere.json"], "nowhere.json: cannot read the mapping file"),
+])
+def test_import_command_errors(walk_file, tmp_path, capsys, args, message):
+    out = tmp_path / "walk.txt"
+    assert cli.main(["clips", "import", str(walk_file), "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+
+
+def test_real_cmu_recordings(tmp_path):
+    """The CMU files in ../shared/bvh (skipped without them): both import onto the humanoid."""
+    from conftest import REPO
+
+    folder = REPO.parent / "shared" / "bvh" / "cmu"
+    if not folder.is_dir():
+        pytest.skip("../shared/bvh/cmu is not present")
+    character = load_character()
+    for path in sorted(folder.glob("*.bvh")):
+        bvh = load_bvh(path)
+        result = import_bvh(bvh, character, find_mapping(bvh, "humanoid"))
+        assert result.report["mapping"].endswith("cmu_max.json")
+        assert result.report["end_effector_error_m"]["left_ankle"] < 0.03
+        assert result.report["penetration_max_m"] < 0.02
+        assert np.all(np.isfinite(result.clip.qpos))
+        q = result.clip.qpos[:, 3:7]
+        np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-9)
+        assert quat.angle(q[0]) >= 0
