@@ -65,7 +65,7 @@ def test_names_prefixes_and_resolution(tmp_path):
     own = tmp_path / "mine.xml"
     own.write_text((XML_DIR / "dog3d.xml").read_text())
     assert resolve_xml(own) == own
-    with pytest.raises(UserError, match="unknown character 'cat': not a file, and not one of dog3d, humanoid"):
+    with pytest.raises(UserError, match="unknown character 'cat': not a file, and not one of dog3d, g1, humanoid"):
         resolve_xml("cat")
 
 

@@ -12,9 +12,13 @@ import json
 import math
 import sys
 from collections.abc import Callable
-from typing import NamedTuple
+from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
 
 from mjxmimic.core.errors import UserError
+
+if TYPE_CHECKING:
+    from mjxmimic.core.character import Character
 
 
 class Subcommand(NamedTuple):
@@ -28,7 +32,7 @@ def _add_clips_dir(parser: argparse.ArgumentParser) -> None:
                         help="folder of clip files searched after the project's clips/ "
                              "(default: $MJXMIMIC_CLIPS, folders separated by the path separator)")
     parser.add_argument("--character", default="humanoid", metavar="NAME|PATH",
-                        help="the character the clips move: humanoid (default), dog3d, or an MJCF file; "
+                        help="the character the clips move: humanoid (default), dog3d, g1, or an MJCF file; "
                              "its clip prefix finds clips by short name (dog3d: trot -> dog3d_trot.txt)")
 
 
@@ -192,8 +196,6 @@ def add_render_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_render(args: argparse.Namespace) -> int:
     """Headless video of the clip's reference motion (kinematic; mjxmimic.portable.render)."""
-    from pathlib import Path
-
     from mjxmimic.commands.render import _check_size
     from mjxmimic.portable.render import check_video_path, render_clip, setup_gl
 
@@ -240,11 +242,9 @@ def add_import_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_import(args: argparse.Namespace) -> int:
     """BVH -> a validated clip file, written only when it reads back as one (mjxmimic.motion.bvh_import)."""
-    from pathlib import Path
-
     from mjxmimic.motion.bvh import load_bvh
     from mjxmimic.motion.bvh_import import find_mapping, import_bvh, load_mapping
-    from mjxmimic.motion.clip import clip_from_json, format_clip
+    from mjxmimic.motion.clip import format_clip
 
     character = _character(args)
     name = Path(character.xml_path).stem
@@ -255,27 +255,85 @@ def run_import(args: argparse.Namespace) -> int:
                         loop=args.loop == "wrap", name=out.stem)
     text = format_clip(result.clip, character, comment=f"imported from {Path(args.file).name} by mjxmimic clips "
                        f"import ({mapping.path.name}, {args.start:g} to {result.report['end_s']:g} s)")
-    clip_from_json(json.loads(text), character, out, out.stem)  # it must read back
-    if not out.parent.is_dir():
-        raise UserError(f"--out {out}: no folder {out.parent}")
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(out)
+    _write_clip(text, out, character)
     report = {"clip": str(out), "source": str(args.file), **result.report}
     if args.json:
         print(json.dumps(report))
         return 0
-    errors = ", ".join(f"{k} {v * 100:.1f}" for k, v in report["end_effector_error_m"].items())
     print(f"{out}: {report['frames']} frames at {report['fps']:g} fps, {report['duration_s']:.2f} s "
           f"(from {report['source_frames']} at {report['source_fps']:.0f} fps, {report['start_s']:g} to "
           f"{report['end_s']:.2f} s), loop {args.loop}")
     print(f"  mapping {mapping.path.name}, scale {report['scale']:.4f} m per unit, moved {report['ground_shift_m']:+.3f} m "
           f"to the ground")
-    print(f"  end-effector error (cm, to the scaled source about the hips): {errors}")
+    _print_quality(report, "to the scaled source about the hips")
+    return 0
+
+
+def _write_clip(text: str, out: Path, character: Character) -> None:
+    """Write a made clip only once it reads back as one, and atomically."""
+    from mjxmimic.motion.clip import clip_from_json
+
+    clip_from_json(json.loads(text), character, out, out.stem)
+    if not out.parent.is_dir():
+        raise UserError(f"--out {out}: no folder {out.parent}")
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(out)
+
+
+def _print_quality(report: dict, about: str) -> None:
+    errors = ", ".join(f"{k} {v * 100:.1f}" for k, v in report["end_effector_error_m"].items()) or "-"
+    print(f"  end-effector error (cm, {about}): {errors}")
     skating = report["foot_skating_m_per_s"]
     print(f"  foot skating {'-' if skating is None else f'{skating:.3f} m/s'} (planted feet), penetration "
           f"{report['penetration_max_m'] * 100:.1f} cm, {report['frames_below_ground']} frames below ground, "
           f"joint-limit hits {report['joint_limit_hits']} ({report['joint_limit_hit_rate'] * 100:.1f} % of hinge samples)")
+
+
+# -------------------------------------------------------------------------------------- retarget
+
+
+def add_retarget_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("clip", metavar="CLIP", help="clip name or file of the source character")
+    parser.add_argument("--to", required=True, metavar="NAME|PATH", help="the character to move (e.g. g1)")
+    parser.add_argument("--out", metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
+    parser.add_argument("--from", dest="character", default="humanoid", metavar="NAME|PATH",
+                        help="the clip's character (default: humanoid)")
+    parser.add_argument("--map", metavar="FILE.json", default=None,
+                        help="body pairs and weights (default: mjxmimic/motion/retargets/FROM_to_TO.json; not "
+                             "needed when the skeletons match)")
+    parser.add_argument("--clips-dir", default=None, metavar="DIR", help="folder of clips to look in first")
+    parser.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def run_retarget(args: argparse.Namespace) -> int:
+    """A clip of one character -> a validated clip of another (mjxmimic.motion.retarget)."""
+    from mjxmimic.core.character import load_character, resolve_xml
+    from mjxmimic.motion.clip import format_clip, load_clip_source
+    from mjxmimic.motion.retarget import find_map, load_map, matching, retarget
+
+    source = _character(args)
+    target = load_character(resolve_xml(args.to))
+    clip = load_clip_source(args.clip, source, args.clips_dir)
+    mapping = None
+    if args.map:
+        mapping = load_map(Path(args.map))
+    elif not matching(source, target):
+        mapping = find_map(source.xml_path.stem, target.xml_path.stem)
+    out = Path(args.out)
+    result = retarget(clip, source, target, mapping)
+    report = {"clip": str(out), "source": args.clip, "from": source.xml_path.stem, "to": target.xml_path.stem,
+              **result.report}
+    _write_clip(format_clip(result.clip, target, comment=f"retargeted from {args.clip} ({report['from']}) to "
+                            f"{report['to']} by mjxmimic clips retarget ({report['method']})"), out, target)
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    how = "joint rotations copied" if report["method"] == "copy" else f"inverse kinematics ({Path(report['map']).name})"
+    print(f"{out}: {report['frames']} frames at {report['fps']:g} fps, {report['duration_s']:.2f} s, "
+          f"{report['from']} -> {report['to']}, {how}, scale {report['scale']:.3f}, moved "
+          f"{report['ground_shift_m']:+.3f} m to the ground")
+    _print_quality(report, "to the scaled source, about the root")
     return 0
 
 
@@ -285,6 +343,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
                        add_info_arguments, run_info),
     "render": Subcommand("headless video (mp4) of a clip's reference motion", add_render_arguments, run_render),
     "import": Subcommand("a motion capture file (BVH) -> a clip for a character", add_import_arguments, run_import),
+    "retarget": Subcommand("a clip of one character -> a clip of another (e.g. --to g1)", add_retarget_arguments,
+                           run_retarget),
 }
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjxmimic.core import g1_character
 from mjxmimic.core.errors import UserError
 
 XML_DIR = Path(__file__).resolve().parent / "characters"
@@ -119,23 +120,24 @@ def default_fall_contact(clip_name: str) -> str:
 
 
 def character_names() -> list[str]:
-    """The characters the package ships, by name (humanoid, dog3d, ...)."""
-    return sorted(p.stem for p in XML_DIR.glob("*.xml"))
+    """The characters known by name: those the package ships (humanoid, dog3d) and those built on
+    use from a model outside it (g1)."""
+    return sorted([p.stem for p in XML_DIR.glob("*.xml")] + [g1_character.NAME])
 
 
 def character_prefixes() -> dict[str, str]:
     """Each shipped character's clip file-name prefix, by name (those that have one)."""
-    out = {}
-    for name in character_names():
-        model = mujoco.MjModel.from_xml_path(str(XML_DIR / f"{name}.xml"))
+    out = {g1_character.NAME: f"{g1_character.NAME}_"}
+    for path in XML_DIR.glob("*.xml"):
+        model = mujoco.MjModel.from_xml_path(str(path))
         if _has_text(model, "clip_prefix"):
-            out[name] = _custom_text(model, "clip_prefix")
-    return out
+            out[path.stem] = _custom_text(model, "clip_prefix")
+    return dict(sorted(out.items()))
 
 
 def resolve_xml(xml: str | Path) -> Path:
     """A character's MJCF: a path, a file name in the package's characters/ folder, or a NAME
-    there (`humanoid`, `dog3d`)."""
+    (`humanoid`, `dog3d`, `g1`)."""
     path = Path(xml)
     if path.is_file():
         return path
@@ -143,6 +145,8 @@ def resolve_xml(xml: str | Path) -> Path:
         return XML_DIR / path
     if (XML_DIR / f"{xml}.xml").is_file():
         return XML_DIR / f"{xml}.xml"
+    if str(xml) == g1_character.NAME:
+        return g1_character.ensure_xml()
     raise UserError(f"unknown character {str(xml)!r}: not a file, and not one of {', '.join(character_names())}")
 
 

@@ -19,13 +19,12 @@ The PD gains are not in the character file but in DeepMimic's controller files
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
 from typing import Any
 
-from mjxmimic.core.errors import UserError
+from mjxmimic.core.errors import UserError, read_json
 
 # (Kp, Kd) per joint from DeepMimic's data/controllers/*_ctrl.txt (MIT).
 GAINS = {
@@ -210,18 +209,9 @@ def _id(joints: list[dict], name: str) -> int:
     return next(int(j["ID"]) for j in joints if j["Name"] == name)
 
 
-def _read_json(path: Path, what: str) -> Any:
-    try:
-        return json.loads(path.read_text())
-    except OSError as err:
-        raise UserError(f"{path}: cannot read the {what} ({err.strerror})") from None
-    except json.JSONDecodeError as err:
-        raise UserError(f"{path}: the {what} is not JSON ({err.msg}, line {err.lineno})") from None
-
-
 def ctrl_gains(path: Path) -> dict[str, tuple[float, float]]:
     """(Kp, Kd) by joint name from a DeepMimic controller file's PDControllers."""
-    data = _read_json(path, "controller file")
+    data = read_json(path, "controller file")
     try:
         return {c["Name"]: (float(c["Kp"]), float(c["Kd"])) for c in data["PDControllers"]}
     except (KeyError, TypeError, ValueError):
@@ -237,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     name = args.name or args.file.stem
     try:
-        text = convert(_read_json(args.file, "character file"), name,
+        text = convert(read_json(args.file, "character file"), name,
                        gains=ctrl_gains(args.ctrl) if args.ctrl else None, source=args.file.name)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)

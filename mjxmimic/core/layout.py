@@ -70,10 +70,10 @@ def make_layout(character: Character) -> Layout:
     f32 = np.float32
     return Layout(
         q_quat=q_quat_a,
-        q_scalar=np.array(q_scalar),
+        q_scalar=np.array(q_scalar, dtype=int),
         q_perm=np.argsort(np.concatenate([q_scalar, q_quat_a.ravel()])),
         v_ang=v_ang_a,
-        v_scalar=np.array(v_scalar),
+        v_scalar=np.array(v_scalar, dtype=int),
         v_perm=np.argsort(np.concatenate([v_scalar, v_ang_a.ravel()])),
         quat_weight=np.array(quat_weight, dtype=f32),
         hinge_weight=np.array(hinge_weight, dtype=f32),
@@ -85,8 +85,8 @@ def make_layout(character: Character) -> Layout:
         hinge_limit=np.array(hinge_limit, dtype=f32),
         hinge_low=np.array(hinge_low, dtype=f32),
         hinge_high=np.array(hinge_high, dtype=f32),
-        action_ball=np.array(action_ball),
-        action_hinge=np.array(action_hinge),
+        action_ball=np.array(action_ball, dtype=int).reshape(-1, 3),  # (0, 3) for a character of hinges
+        action_hinge=np.array(action_hinge, dtype=int),
         end_effectors=np.array(character.end_effectors),
         body_mass=model.body_mass.astype(f32),
     )

@@ -107,3 +107,13 @@ def rotate_yaw(v: Any, yaw: Any, xp: Any = np) -> Any:
 
 def wrap_angle(a: Any, xp: Any = np) -> Any:
     return xp.arctan2(xp.sin(a), xp.cos(a))
+
+
+def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation that turns direction a into direction b (numpy only)."""
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    axis, cos = np.cross(a, b), float(a @ b)
+    if cos < -1 + 1e-9:  # opposite: any perpendicular axis
+        perp = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        return np.concatenate([[0.0], perp / np.linalg.norm(perp)])
+    return normalize(np.concatenate([[1.0 + cos], axis]))

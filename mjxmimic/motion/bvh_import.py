@@ -13,7 +13,6 @@ lengths' ratio; the clip is resampled, moved to the origin and put on the ground
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import mujoco
@@ -21,13 +20,13 @@ import numpy as np
 
 from mjxmimic.core import quat
 from mjxmimic.core.character import Character
-from mjxmimic.core.errors import UserError
+from mjxmimic.core.errors import UserError, read_json
+from mjxmimic.motion import quality
 from mjxmimic.motion.bvh import Bvh
-from mjxmimic.motion.clip import Clip, lowest_points
+from mjxmimic.motion.clip import Clip
 
 SKELETONS = Path(__file__).resolve().parent / "skeletons"
 AXIS_NAMES = {"x": 0, "y": 1, "z": 2}
-CONTACT_HEIGHT = 0.01  # m: a foot this close to the ground is taken to be planted (skating)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,12 +48,7 @@ def _axis(text: object, where: str) -> np.ndarray:
 
 
 def load_mapping(path: Path, character_name: str) -> Mapping:
-    try:
-        data = json.loads(path.read_text())
-    except OSError as err:
-        raise UserError(f"{path}: cannot read the mapping file ({err.strerror})") from None
-    except json.JSONDecodeError as err:
-        raise UserError(f"{path}: the mapping file is not JSON ({err.msg}, line {err.lineno})") from None
+    data = read_json(path, "mapping file")
     if not isinstance(data, dict) or not isinstance(data.get("characters"), dict):
         raise UserError(f"{path}: expected an object with 'up', 'forward' and 'characters'")
     target = data["characters"].get(character_name)
@@ -99,15 +93,6 @@ def _matrix_quat(m: np.ndarray) -> np.ndarray:
     mujoco.mju_mat2Quat(out, np.ascontiguousarray(m, dtype=np.float64).reshape(-1))
     return out
 
-
-def _between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smallest rotation that turns direction a into direction b."""
-    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
-    axis, cos = np.cross(a, b), float(a @ b)
-    if cos < -1 + 1e-9:  # opposite: any perpendicular axis
-        perp = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        return np.concatenate([[0.0], perp / np.linalg.norm(perp)])
-    return quat.normalize(np.concatenate([[1.0 + cos], axis]))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,7 +160,7 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
             target_bone = rest_xpos[child] - rest_xpos[bid]
             source_bone = to_world @ (rest[joint_of[model.body(child).name]] - rest[joint_of[b]])
             if np.linalg.norm(target_bone) > 1e-6 and np.linalg.norm(source_bone) > 1e-6:
-                align = _between(target_bone, source_bone)
+                align = quat.between(target_bone, source_bone)
         desired[bid] = quat.mul(src_in_world[:, joint_of[b]], quat.mul(align, rest_xquat[bid]))
 
     # joint by joint from the root: each takes what its parent left over
@@ -233,10 +218,7 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
 
     qpos = _resample(model, qpos, times - times[0], fps, stop - start)
     qpos[:, 0:2] -= qpos[0, 0:2]
-    lowest = lowest_points(character, qpos)
-    ground_shift = -float(np.percentile(lowest, 5))
-    qpos[:, 2] += ground_shift
-    lowest += ground_shift
+    qpos, lowest, ground_shift = quality.put_on_ground(character, qpos)
 
     durations = np.full(qpos.shape[0], 1.0 / fps)
     clip = Clip(name=name, path=None, loop=loop, durations=durations, qpos=qpos)
@@ -271,12 +253,7 @@ def _report(character: Character, mapping: Mapping, clip: Clip, bvh: Bvh, src_po
     """End-effector error against the scaled source (both relative to the root anchor), foot skating,
     penetration."""
     model = character.model
-    data = mujoco.MjData(model)
-    positions = np.zeros((clip.num_frames, model.nbody, 3))
-    for f, q in enumerate(clip.qpos):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
-        positions[f] = data.xpos
+    positions = quality.body_positions(character, clip.qpos)
     times = np.arange(clip.num_frames) / clip.fps
     anchor_src = np.mean([src_pos[:, joint_of[b]] for b in mapping.root_anchor], axis=0)
     anchor_tgt = np.mean([positions[:, model.body(b).id] for b in mapping.root_anchor], axis=0)
@@ -289,19 +266,12 @@ def _report(character: Character, mapping: Mapping, clip: Clip, bvh: Bvh, src_po
         rel_src = np.stack([np.interp(times, src_times, rel_src[:, k]) for k in range(3)], axis=1)
         rel_tgt = positions[:, b] - anchor_tgt
         errors[name] = float(np.mean(np.linalg.norm(rel_tgt - rel_src, axis=1)))
-    skating = []
-    for b in character.body_sets.get("feet", ()):
-        height = lowest_points(character, clip.qpos, (b,))
-        speed = np.linalg.norm(np.diff(positions[:, b, :2], axis=0), axis=1) * clip.fps
-        planted = (height[1:] < CONTACT_HEIGHT) & (height[:-1] < CONTACT_HEIGHT)
-        if planted.any():
-            skating.append(float(np.mean(speed[planted])))
+    skating = quality.foot_skating(character, clip.qpos, clip.fps)
     return {
         "frames": clip.num_frames, "fps": round(clip.fps, 9), "duration_s": round(clip.duration, 9), "scale": scale,
         "mapping": str(mapping.path),
         "end_effector_error_m": errors,
         "end_effector_error_mean_m": float(np.mean(list(errors.values()))) if errors else None,
-        "foot_skating_m_per_s": float(np.mean(skating)) if skating else None,
-        "penetration_max_m": float(max(0.0, -lowest.min())),
-        "frames_below_ground": int(np.sum(lowest < -0.005)),
+        "foot_skating_m_per_s": skating,
+        **quality.ground_report(lowest),
     }
