@@ -103,7 +103,7 @@ def test_list(deepmimic_dir, capsys):
 
 def test_subcommands_are_a_registry(monkeypatch, capsys):
     """Another subcommand (e.g. render) is one more entry: the parser and dispatcher pick it up."""
-    assert set(clips_cmd.SUBCOMMANDS) == {"list", "info", "render", "import"}
+    assert set(clips_cmd.SUBCOMMANDS) == {"list", "info", "render", "import", "retarget"}
 
     def add(parser):
         parser.add_argument("clip")

@@ -108,19 +108,8 @@ def test_max_of_one_clip_is_its_own_reward_on_mujoco_c(character):
     assert rewards["max"] == pytest.approx(rewards["own"], abs=0.01)
 
 
-def test_a_dataset_run_is_not_exported_but_says_why(tmp_path, capsys):
-    from mjxmimic.core.config import save
-
-    path = _write(tmp_path, {"clips": ["slow_walk", "squat"]})
-    run = tmp_path / "run"
-    (run / "checkpoints").mkdir(parents=True)
-    save(make_config("cpu", {"clip.name": str(path)}), run / "config.json")
-    assert cli.main(["export", str(run)]) == 2
-    assert "trained on a dataset" in capsys.readouterr().err
-
-
 @pytest.mark.slow
-def test_train_on_a_dataset_end_to_end(tmp_path):
+def test_train_on_a_dataset_end_to_end(tmp_path, capsys):
     path = _write(tmp_path, {"clips": [{"clip": "slow_walk", "weight": 2}, "squat"]})
     run = tmp_path / "run"
     code = cli.main(["train", "--preset", "cpu", "--clip", str(path), "--out", str(run),
@@ -129,3 +118,15 @@ def test_train_on_a_dataset_end_to_end(tmp_path):
     assert code == 0
     final = json.loads((run / "eval.json").read_text())
     assert {"clip/slow_walk/nr", "clip/squat/nr"} <= set(final) and 0 <= final["nr"] <= 1
+    # the policy exports with both clips and plays each of them, and a skill sequence, on MuJoCo C
+    policy = tmp_path / "policy.npz"
+    assert cli.main(["export", str(run), "--out", str(policy)]) == 0
+    capsys.readouterr()
+    assert cli.main(["play", str(policy), "--episodes", "2", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["clips"]
+    assert set(rows) == {"slow_walk", "squat"}
+    for name, row in rows.items():  # the MJX evaluation's NR of each clip came along
+        assert row["mjx_nr"] == pytest.approx(final[f"clip/{name}/nr"]) and 0 <= row["nr"] <= 1
+    assert cli.main(["play", str(policy), "--skill-sequence", "squat:0.2,slow_walk:0.2", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["segments"][0]["skill"] == "squat"
+

@@ -39,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
     parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
+    parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
+                        help="a policy trained on a dataset with the skill observation: switch the skill it "
+                             "follows, e.g. \"walk:4,run:4,walk:4\" (one run, no reset between skills)")
 
 
 def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
@@ -73,6 +76,85 @@ def _viewer_loop(env, policy, starts):
         return evaluate(env, policy, starts, on_step=on_step)
 
 
+def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
+    """A dataset policy: each clip (or the one asked for) from the MJX evaluation's start times of
+    that clip, each with its own skill one-hot."""
+    from mjxmimic.portable.playback import evaluate
+
+    ev = (pf.manifest.get("training", {}).get("eval") or {}).get("clips") or {}
+    n = DEFAULT_EPISODES if args.episodes is None else args.episodes
+    rows = {}
+    for index, clip in enumerate(env.clips):
+        if only is not None and index != only:
+            continue
+        stored = (ev.get(clip.name) or {}).get("start_times") or []
+        if args.seed is None and n <= len(stored):
+            starts, label = stored[:n], f"the MJX evaluation's (first {n} of {len(stored)})"
+        else:
+            seed = 0 if args.seed is None else args.seed
+            starts, label = env.start_times(n, seed, index).tolist(), f"seeded draw (numpy, seed {seed})"
+        result = evaluate(env, pf.policy(), starts, clip=index)
+        mjx_nr = (ev.get(clip.name) or {}).get("nr")
+        rows[clip.name] = {"nr": result["nr"], "nr_paper": result["nr_paper"], "fall_rate": result["fall_rate"],
+                           "survival_s": result["survival_s"], "episodes": result["episodes"], "starts": label,
+                           "mjx_nr": mjx_nr, "ratio": result["nr"] / mjx_nr if mjx_nr else None}
+    if args.json:
+        print(json.dumps({"policy": str(pf.path), "clips": rows}))
+        return 0
+    print(f"{pf.path}: {len(env.clips)} skills, MuJoCo CPU")
+    print(f"  {'skill':<20} {'NR (CPU)':>9} {'paper form':>10} {'MJX NR':>7} {'ratio':>6} {'falls':>6}")
+    for name, r in rows.items():
+        mjx = "-" if r["mjx_nr"] is None else f"{r['mjx_nr']:.3f}"
+        ratio = "-" if r["ratio"] is None else f"{r['ratio']:.3f}"
+        print(f"  {name:<20} {r['nr']:>9.3f} {r['nr_paper']:>10.3f} {mjx:>7} {ratio:>6} {r['fall_rate']:>6.2f}")
+    return 0
+
+
+def _viewer_skills(env, policy) -> int:
+    """A dataset policy in the viewer: keys 1 to 9 switch the skill; a fall restarts that skill."""
+    import mujoco.viewer
+
+    from mjxmimic.portable.skills import check_selectable, skill_for_key
+
+    check_selectable(env)
+    pending: list[int] = []
+    print("keys: " + ", ".join(f"{i + 1} {c.name}" for i, c in enumerate(env.clips[:9])))
+
+    def on_key(keycode: int) -> None:
+        skill = skill_for_key(keycode, len(env.clips))
+        if skill is not None:
+            pending.append(skill)
+
+    with mujoco.viewer.launch_passive(env.model, env.data, key_callback=on_key) as viewer:
+        obs, clock = env.reset_at(0.0), time.perf_counter()
+        while viewer.is_running():
+            if pending:
+                obs = env.switch(pending.pop())
+                pending.clear()
+            s = env.step(policy(obs))
+            obs = env.reset_at(0.0, clip=env.motion.clip) if s.failed else s.obs
+            viewer.sync()
+            clock += env.control_dt
+            time.sleep(max(0.0, clock - time.perf_counter()))
+    return 0
+
+
+def _skill_sequence(args: argparse.Namespace, pf, env) -> int:
+    from mjxmimic.portable.skills import parse_sequence, play_sequence
+
+    sequence = parse_sequence(args.skill_sequence, [c.name for c in env.clips])
+    result = {"policy": str(pf.path), "sequence": args.skill_sequence, **play_sequence(env, pf.policy(), sequence)}
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"{pf.path}: {args.skill_sequence}, MuJoCo CPU; "
+          f"{'fell' if result['fell'] else 'stayed up'} after {result['survived_s']:.1f} of {result['seconds']:g} s")
+    for seg in result["segments"]:
+        print(f"  {seg['skill']:<20} {seg['survived_s']:5.1f} of {seg['seconds']:g} s, imitation reward "
+              f"{seg['imitation_reward']:.3f}, pose error {seg['pose_error_rad']:.3f} rad")
+    return 0
+
+
 def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
     from mjxmimic.commands.evaluate import print_push_table
     from mjxmimic.core.errors import UserError
@@ -105,12 +187,25 @@ def run(args: argparse.Namespace) -> int:
 
     pf = load_policy_file(args.policy)
     character = pf.character()
+    clips = pf.clips()
+    if args.clip is not None and args.clip in [c.name for c in clips]:
+        env = CpuEnv(pf.config(), character, clips, pf.weights())
+        return _play_clips(args, pf, env, [c.name for c in clips].index(args.clip))
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source
 
         clip = load_clip_source(args.clip, character, args.clips_dir)
+    elif len(clips) > 1:
+        env = CpuEnv(pf.config(), character, clips, pf.weights())
+        if args.viewer:
+            return _viewer_skills(env, pf.policy())
+        if args.skill_sequence is not None:
+            return _skill_sequence(args, pf, env)
+        return _play_clips(args, pf, env, None)
     else:
-        clip = pf.clip()
+        clip = clips[0]
+    if args.skill_sequence is not None:
+        raise UserError("--skill-sequence needs a policy trained on a dataset of clips; this one has one clip")
     env = CpuEnv(pf.config(), character, clip)
     policy = pf.policy()
     starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)

@@ -35,6 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="push the pelvis with FORCE newtons for 0.2 s from TIME seconds into the episode")
     parser.add_argument("--push-direction", choices=["forward", "sideways"], default="forward",
                         help="along the character's facing, or to its left (default forward)")
+    parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
+                        help="a dataset policy with the skill observation: switch skills, e.g. \"walk:4,run:4\"")
 
 
 def parse_push(text: str, direction: str) -> tuple[float, float, float]:
@@ -77,9 +79,10 @@ def run(args: argparse.Namespace) -> int:
 
         clip = load_clip_source(args.clip, pf.character(), args.clips_dir)
     info = render_policy(pf, args.out, ghost=args.ghost, clip=clip, start=args.start, seconds=args.seconds,
-                         width=args.width, height=args.height, push=push)
+                         width=args.width, height=args.height, push=push, skill_sequence=args.skill_sequence)
     end = "fell" if info["fell"] else "did not fall"
     print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s at {info['fps']:.0f} fps, "
-          f"{args.out.stat().st_size / 1024:.0f} KiB; {info['clip']} from t={info['start_time']:.2f} s, "
+          f"{args.out.stat().st_size / 1024:.0f} KiB; {args.skill_sequence or info['clip']} from "
+          f"t={info['start_time']:.2f} s, "
           f"{end}, mean reward {info['mean_reward']:.3f} (MUJOCO_GL={info['gl']})")
     return 0

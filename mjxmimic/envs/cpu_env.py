@@ -1,5 +1,5 @@
 """The control step (`mjxmimic.envs.step`) on MuJoCo's C simulator with numpy: one character,
-one clip, one episode at a time. No JAX on this path, so an exported policy plays wherever numpy
+its clip (or a dataset's clips, one of which drives the episode: the skill), one episode at a time. No JAX on this path, so an exported policy plays wherever numpy
 and mujoco do (the viewer, rendering, sim-to-sim NR).
 
 Time is kept in float32 as on MJX, so that both sample the same reference. With a converged
@@ -37,14 +37,16 @@ class Step(NamedTuple):
 
 
 class CpuEnv:
-    """One character on one clip on MuJoCo's CPU simulator."""
+    """One character on MuJoCo's CPU simulator, on one clip or on a dataset's clips (`clip` a list,
+    with `weights`), of which `self.motion.clip` is the one playing."""
 
-    def __init__(self, config: Config, character: Character, clip: Any):
+    def __init__(self, config: Config, character: Character, clip: Any, weights: Any = None):
         env = config.env
         self.config = config
         self.character = character
-        self.clip = clip
-        self.scene, self.spec = step_lib.build(config, character, [clip], np)
+        self.clips = list(clip) if isinstance(clip, (list, tuple)) else [clip]
+        self.clip = self.clips[0]
+        self.scene, self.spec = step_lib.build(config, character, self.clips, np, weights)
         self.model = self.scene.model
         self.observation_size, self.action_size = self.spec.observation_size, self.spec.action_size
         self.substeps = env.physics_hz // env.control_hz
@@ -65,25 +67,34 @@ class CpuEnv:
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Reference (qpos, qvel) at clip time t as the reward sees it (step.graded_reference)."""
-        qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
+        qpos, qvel = motion_lib.sample(self.spec.lib, self.motion.clip, np.float32(t), np)
         return step_lib.graded_reference(self.spec, qpos, qvel, self.data.qpos, self.motion.root_offset, np)
 
     def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0),
-                  event_seed: float = 0.0) -> np.ndarray:
-        """Put the character in (qpos, qvel) at clip time t; returns the observation."""
+                  event_seed: float = 0.0, clip: int = 0) -> np.ndarray:
+        """Put the character in (qpos, qvel) at time t of clip number `clip`; returns the observation."""
         self.physics.init(qpos, qvel)
-        self.motion = step_lib.Motion(clip=0, time=np.float32(t), steps=int(steps),
+        self.motion = step_lib.Motion(clip=int(clip), time=np.float32(t), steps=int(steps),
                                       root_offset=np.array(root_offset, dtype=np.float64),
                                       event_seed=float(event_seed),
                                       goal=step_lib.initial_goal(self.spec, qpos, event_seed, np))
         kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
         return step_lib.observe(self.spec, self.physics, kin, self.motion)
 
-    def reset_at(self, t: float, event_seed: float = 0.0) -> np.ndarray:
-        """The reference state at clip time t (RSI); returns the observation. `event_seed` in
-        [0, 1) varies the episode's events and goals."""
-        qpos, qvel = motion_lib.sample(self.spec.lib, 0, np.float32(t), np)
-        return self.set_state(qpos, qvel, t, event_seed=event_seed)
+    def reset_at(self, t: float, event_seed: float = 0.0, clip: int = 0) -> np.ndarray:
+        """The reference state at time t of clip number `clip` (RSI); returns the observation.
+        `event_seed` in [0, 1) varies the episode's events and goals."""
+        qpos, qvel = motion_lib.sample(self.spec.lib, clip, np.float32(t), np)
+        return self.set_state(qpos, qvel, t, event_seed=event_seed, clip=clip)
+
+    def switch(self, clip: int) -> np.ndarray:
+        """Play clip number `clip` from here on (the skill selector), at the same phase of its
+        cycle; returns the observation, whose skill one-hot now names it."""
+        durations = self.spec.lib.duration
+        phase = (float(self.motion.time) / float(durations[self.motion.clip])) % 1.0
+        self.motion = self.motion._replace(clip=int(clip), time=np.float32(phase * float(durations[clip])))
+        kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
+        return step_lib.observe(self.spec, self.physics, kin, self.motion)
 
     def step(self, action: Any, external_force: Any = None, grade_paper: bool = False) -> Step:
         out = step_lib.control_step(self.spec, self.physics, self.data, self.motion,
@@ -95,20 +106,23 @@ class CpuEnv:
                     fell=bool(metrics["fell"]), failed=failed, truncated=timeout, clip_end=bool(out.clip_end),
                     metrics=metrics)
 
-    def eval_horizon(self, t: float) -> int:
-        return int(step_lib.eval_horizon(self.spec, 0, np.float32(t), np))
+    def eval_horizon(self, t: float, clip: int = 0) -> int:
+        return int(step_lib.eval_horizon(self.spec, clip, np.float32(t), np))
 
-    def start_times(self, n: int, seed: int) -> np.ndarray:
+    def start_times(self, n: int, seed: int, clip: int = 0) -> np.ndarray:
         """n start times ~ U[0, clip duration) from a seeded numpy generator (the interval that
         MJX evaluation draws from; its own times come from JAX's generator, see export)."""
-        return np.random.default_rng(seed).uniform(0.0, self.clip_duration, size=n).astype(np.float32)
+        duration = float(self.clip_durations[clip])
+        return np.random.default_rng(seed).uniform(0.0, duration, size=n).astype(np.float32)
 
     def episode(self, policy: Callable[[np.ndarray], np.ndarray], t0: float,
-                on_step: Callable[[CpuEnv, Step], Any] | None = None, event_seed: float = 0.0) -> dict[str, Any]:
-        """One evaluation episode from the reference state at t0, counted by `mjxmimic.task.nr`.
-        on_step(env, step) after every step (a viewer); returning False ends the episode there."""
-        obs = self.reset_at(t0, event_seed)
-        horizon = self.eval_horizon(t0)
+                on_step: Callable[[CpuEnv, Step], Any] | None = None, event_seed: float = 0.0,
+                clip: int = 0) -> dict[str, Any]:
+        """One evaluation episode of clip number `clip` from its reference state at t0, counted by
+        `mjxmimic.task.nr`. on_step(env, step) after every step (a viewer); returning False ends
+        the episode there."""
+        obs = self.reset_at(t0, event_seed, clip)
+        horizon = self.eval_horizon(t0, clip)
         acc = nr_rule.start((), np)
         task_acc = goals.metrics_start(self.config.task.name, (), np) if self.config.task.name else None
         for k in range(horizon):

@@ -24,14 +24,15 @@ def summarize(episodes: list[dict[str, Any]], control_dt: float) -> dict[str, An
 
 def evaluate(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], starts: Any,
              progress: Callable[[int, dict], Any] | None = None,
-             on_step: Callable[[CpuEnv, Step], Any] | None = None) -> dict[str, Any]:
-    """Sim-to-sim NR: one episode per start time on the CPU simulator.
+             on_step: Callable[[CpuEnv, Step], Any] | None = None, clip: int = 0) -> dict[str, Any]:
+    """Sim-to-sim NR: one episode of clip number `clip` per start time on the CPU simulator.
     on_step(env, step) after every step (a viewer); returning False ends that episode."""
     t_start = time.perf_counter()
     episodes = []
     for i, t0 in enumerate(np.asarray(starts, np.float32)):
         # each episode its own goals (a task's), the same in every playback
-        episodes.append(env.episode(policy, float(t0), on_step=on_step, event_seed=(i * goals.PLASTIC) % 1.0))
+        episodes.append(env.episode(policy, float(t0), on_step=on_step, event_seed=(i * goals.PLASTIC) % 1.0,
+                                    clip=clip))
         if progress is not None:
             progress(i, episodes[-1])
     wall = time.perf_counter() - t_start

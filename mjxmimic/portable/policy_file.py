@@ -11,6 +11,7 @@ npz format (`numpy.load(path)`, no pickles), format "mjxmimic-policy" version 1.
                                                   (loc, scale); the action is tanh(loc)
     clip/qpos                   (frames, nq) float64  the reference clip, MuJoCo qpos layout, z-up
     clip/durations              (frames,) float64     seconds from each frame to the next
+    clip/<i>/qpos, .../durations                      a dataset's clips after the first (i = 1 ..)
 
 The manifest (JSON object):
     format, format_version, mjxmimic_version, created (UTC, ISO 8601)
@@ -18,6 +19,8 @@ The manifest (JSON object):
                 every actuated joint in clip order with kind, kp, kd (= MuJoCo damping),
                 torque_limit and (hinges) range: the PD gains and limits as derived from the MJCF
     clip        name, source path at export time, loop, frames, duration_s
+    dataset     (a policy trained on several clips) name and clips: each clip's name, loop,
+                frames, duration_s and weight, in the order of the skill one-hot
     control     control_hz, physics_hz, substeps, solver_iterations, ls_iterations, integrator,
                 action_mode, action_scale, action (what an action means), pd_law
     episode     episode_seconds, early_termination, max_joint_velocity, fall_contact (resolved
@@ -28,15 +31,16 @@ The manifest (JSON object):
     training    run folder, checkpoint (env_steps), best (whether it is the run's best-evaluated
                 checkpoint), samples, train_seconds, and `eval`: the training-side (MJX)
                 evaluation of that checkpoint: nr, fall_rate, survival_s, episodes, seed and the
-                start times of its episodes (so CPU playback starts from the same RSI states)
+                start times of its episodes (so CPU playback starts from the same RSI states);
+                for a dataset also `clips`: each clip's nr and start times
     config      the run's resolved config (mjxmimic.core.config.to_dict); playback rebuilds its
                 environment settings from it (character and clip come from this file instead)
     arrays      every array key with its shape and dtype
 
 ONNX (optional, needs the `onnx` package): graph input "obs" [N, obs] float32, output "action"
 [N, act] = tanh(loc), the normaliser and the MLP as ONNX nodes; the manifest, the character XML
-and the clip ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
-"mjxmimic/clip"), so an .onnx file plays back as well.
+and the clips ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
+"mjxmimic/clip", and "mjxmimic/clips" for a dataset's others), so an .onnx file plays back as well.
 
 No JAX here (numpy and mujoco; onnx for .onnx files), so that `mjxmimic play` and `render` run
 without it; writing one from a run's checkpoint is mjxmimic.runs.export's job.
@@ -80,6 +84,7 @@ class PolicyFile:
     character_xml: str
     clip_qpos: np.ndarray
     clip_durations: np.ndarray
+    other_clips: list[tuple[np.ndarray, np.ndarray]] = dataclasses.field(default_factory=list)  # (qpos, durations)
     path: Path | None = None
     _character: Character | None = dataclasses.field(default=None, repr=False)
 
@@ -109,13 +114,22 @@ class PolicyFile:
         return self._character
 
     def clip(self):
-        """The embedded reference clip as an mjxmimic.motion.clip.Clip."""
+        """The embedded reference clip (a dataset's first) as an mjxmimic.motion.clip.Clip."""
+        return self.clips()[0]
+
+    def clips(self) -> list:
+        """Every embedded clip (several for a policy trained on a dataset), in skill order."""
         from mjxmimic.motion.clip import Clip
 
-        c = self.manifest["clip"]
-        return Clip(name=c["name"], path=None, loop=bool(c["loop"]),
-                    durations=np.array(self.clip_durations, np.float64),
-                    qpos=np.array(self.clip_qpos, np.float64))
+        entries = self.manifest["dataset"]["clips"] if "dataset" in self.manifest else [self.manifest["clip"]]
+        arrays = [(self.clip_qpos, self.clip_durations), *self.other_clips]
+        if len(arrays) != len(entries):
+            raise UserError(f"{self.path}: the manifest lists {len(entries)} clips, the file holds {len(arrays)}")
+        return [Clip(name=c["name"], path=None, loop=bool(c["loop"]), durations=np.array(d, np.float64),
+                     qpos=np.array(q, np.float64)) for c, (q, d) in zip(entries, arrays, strict=True)]
+
+    def weights(self) -> list[float] | None:
+        return [c["weight"] for c in self.manifest["dataset"]["clips"]] if "dataset" in self.manifest else None
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Every array under its npz key."""
@@ -126,6 +140,8 @@ class PolicyFile:
             out[f"policy/{name}/bias"] = np.asarray(layer["bias"])
         out["clip/qpos"] = np.asarray(self.clip_qpos)
         out["clip/durations"] = np.asarray(self.clip_durations)
+        for i, (qpos, durations) in enumerate(self.other_clips, start=1):
+            out[f"clip/{i}/qpos"], out[f"clip/{i}/durations"] = np.asarray(qpos), np.asarray(durations)
         return out
 
 
@@ -136,22 +152,36 @@ def _sha256(text: str) -> str:
 # -------------------------------------------------------------------------------- the manifest
 
 
-def observation_layout(character: Character) -> list[dict[str, Any]]:
-    """The observation's parts in order (mjxmimic.task.observation), with sizes."""
+def observation_layout(character: Character, config: config_lib.Config | None = None,
+                       clip_names: list[str] | None = None) -> list[dict[str, Any]]:
+    """The observation's parts in order (mjxmimic.task.observation's terms as `env.observations`
+    names them, then the task's goal), with sizes."""
+    from mjxmimic.task import goals, observation
+
     bodies = list(character.body_names)
     n = len(bodies)
     frame = "heading frame (rotation about z that undoes the root's facing)"
-    return [
-        {"name": "phase", "size": 1, "about": "clip phase in [0, 1)"},
-        {"name": "root_height", "size": 1, "about": "root body centre-of-mass height, world z (m)"},
-        {"name": "body_position", "size": 3 * n, "bodies": bodies,
-         "about": f"body centre of mass minus the root's, {frame}"},
-        {"name": "body_forward", "size": 3 * n, "bodies": bodies, "about": f"body x axis, {frame}"},
-        {"name": "body_up", "size": 3 * n, "bodies": bodies, "about": f"body z axis, {frame}"},
-        {"name": "body_linear_velocity", "size": 3 * n, "bodies": bodies,
-         "about": f"centre-of-mass linear velocity, {frame}"},
-        {"name": "body_angular_velocity", "size": 3 * n, "bodies": bodies, "about": f"angular velocity, {frame}"},
-    ]
+    parts = {
+        "phase": [{"name": "phase", "size": 1, "about": "clip phase in [0, 1)"}],
+        "root_height": [{"name": "root_height", "size": 1, "about": "root body centre-of-mass height, world z (m)"}],
+        "bodies": [
+            {"name": "body_position", "size": 3 * n, "bodies": bodies,
+             "about": f"body centre of mass minus the root's, {frame}"},
+            {"name": "body_forward", "size": 3 * n, "bodies": bodies, "about": f"body x axis, {frame}"},
+            {"name": "body_up", "size": 3 * n, "bodies": bodies, "about": f"body z axis, {frame}"},
+            {"name": "body_linear_velocity", "size": 3 * n, "bodies": bodies,
+             "about": f"centre-of-mass linear velocity, {frame}"},
+            {"name": "body_angular_velocity", "size": 3 * n, "bodies": bodies, "about": f"angular velocity, {frame}"},
+        ],
+        "skill": [{"name": "skill", "size": len(clip_names or [None]), "clips": clip_names,
+                   "about": "one-hot of the clip to follow (the skill selector), in the order of `clips`"}],
+    }
+    names = observation.parse(config.env.observations if config is not None else observation.DEFAULT)
+    out = [part for name in names for part in parts[name]]
+    task = config.task.name if config is not None else ""
+    if goals.GOAL_SIZE[task]:
+        out.append({"name": "goal", "size": goals.GOAL_SIZE[task], "about": f"the {task} task's goal (mjxmimic.task.goals)"})
+    return out
 
 
 def _joints(character: Character) -> list[dict[str, Any]]:
@@ -167,12 +197,20 @@ def _joints(character: Character) -> list[dict[str, Any]]:
     return out
 
 
+def _clip_entry(clip: Any) -> dict[str, Any]:
+    return {"name": clip.name, "source": str(clip.path) if getattr(clip, "path", None) is not None else None,
+            "loop": bool(clip.loop), "frames": int(clip.qpos.shape[0]),
+            "duration_s": float(np.sum(np.asarray(clip.durations)[:-1]))}
+
+
 def build_manifest(config: config_lib.Config, character: Character, character_xml: str, clip: Any,
-                   params: dict[str, Any], training: dict[str, Any] | None = None) -> dict[str, Any]:
+                   params: dict[str, Any], training: dict[str, Any] | None = None,
+                   dataset: dict[str, Any] | None = None) -> dict[str, Any]:
     """The manifest (module docstring); checks that the policy's sizes fit the character."""
     env = config.env
     policy = NumpyPolicy.from_params(params)
-    obs_layout = observation_layout(character)
+    clip_names = [c["name"] for c in dataset["clips"]] if dataset is not None else [clip.name]
+    obs_layout = observation_layout(character, config, clip_names)
     obs_size = sum(p["size"] for p in obs_layout)
     if policy.observation_size != obs_size:
         raise UserError(f"the policy takes {policy.observation_size} observations; the character "
@@ -200,13 +238,8 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
             "action_size": int(character.action_size),
             "joints": _joints(character),
         },
-        "clip": {
-            "name": clip.name,
-            "source": str(clip.path) if getattr(clip, "path", None) is not None else None,
-            "loop": bool(clip.loop),
-            "frames": int(clip.qpos.shape[0]),
-            "duration_s": float(np.sum(np.asarray(clip.durations)[:-1])),
-        },
+        "clip": _clip_entry(clip),
+        **({"dataset": dataset} if dataset is not None else {}),
         "control": {
             "control_hz": env.control_hz,
             "physics_hz": env.physics_hz,
@@ -245,9 +278,17 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
     }
 
 
-def make_policy_file(config: config_lib.Config, character: Character, clip: Any, params: dict[str, Any],
-                     training: dict[str, Any] | None = None) -> PolicyFile:
-    """Assemble the contents from in-memory parts (params as `mjxmimic.learn.ppo.export_params`)."""
+def make_policy_file(config: config_lib.Config, character: Character, clips: Any, params: dict[str, Any],
+                     training: dict[str, Any] | None = None, weights: list[float] | None = None) -> PolicyFile:
+    """Assemble the contents from in-memory parts (params as `mjxmimic.learn.ppo.export_params`);
+    `clips` is one clip, or a dataset's clips (in skill order) with their weights."""
+    clips = list(clips) if isinstance(clips, (list, tuple)) else [clips]
+    clip = clips[0]
+    dataset = None
+    if len(clips) > 1 or weights is not None:
+        weights = list(weights) if weights is not None else [1.0] * len(clips)
+        dataset = {"name": config.clip.name,
+                   "clips": [dict(_clip_entry(c), weight=float(w)) for c, w in zip(clips, weights, strict=True)]}
     xml = Path(character.xml_path).read_text(encoding="utf-8")
     try:
         mujoco.MjModel.from_xml_string(xml)
@@ -255,9 +296,11 @@ def make_policy_file(config: config_lib.Config, character: Character, clip: Any,
         raise UserError(f"{character.xml_path}: the character does not compile on its own, without "
                         f"its folder (does it use other files?): {err}") from None
     params = _as_numpy(params)
-    manifest = build_manifest(config, character, xml, clip, params, training)
+    manifest = build_manifest(config, character, xml, clip, params, training, dataset)
     pf = PolicyFile(manifest=manifest, params=params, character_xml=xml,
-                    clip_qpos=np.asarray(clip.qpos, np.float64), clip_durations=np.asarray(clip.durations, np.float64))
+                    clip_qpos=np.asarray(clip.qpos, np.float64), clip_durations=np.asarray(clip.durations, np.float64),
+                    other_clips=[(np.asarray(c.qpos, np.float64), np.asarray(c.durations, np.float64))
+                                 for c in clips[1:]])
     manifest["arrays"] = {k: {"shape": list(v.shape), "dtype": str(v.dtype)} for k, v in pf.arrays().items()}
     pf.manifest = json.loads(json.dumps(manifest))  # as a reader will see it (tuples become lists)
     return pf
@@ -325,8 +368,15 @@ def read_npz(path: Path) -> PolicyFile:
         if key not in data:
             raise UserError(f"{path}: not an mjxmimic policy file (no '{key}' array)")
     manifest = _parse_manifest(str(data["manifest"]), path)
+    others = []
+    while f"clip/{len(others) + 1}/qpos" in data:
+        i = len(others) + 1
+        if f"clip/{i}/durations" not in data:
+            raise UserError(f"{path}: not an mjxmimic policy file (no 'clip/{i}/durations' array)")
+        others.append((data[f"clip/{i}/qpos"], data[f"clip/{i}/durations"]))
     return PolicyFile(manifest=manifest, params=_params(data), character_xml=str(data["character_xml"]),
-                      clip_qpos=data["clip/qpos"], clip_durations=data["clip/durations"], path=path)
+                      clip_qpos=data["clip/qpos"], clip_durations=data["clip/durations"], other_clips=others,
+                      path=path)
 
 
 # ----------------------------------------------------------------------------------- onnx files
@@ -377,11 +427,14 @@ def to_onnx(pf: PolicyFile):
     model = helper.make_model(graph, producer_name="mjxmimic", producer_version=__version__,
                               opset_imports=[helper.make_opsetid("", 17)])
     model.ir_version = 8
-    clip = {"qpos": np.asarray(pf.clip_qpos, np.float64).tolist(),
-            "durations": np.asarray(pf.clip_durations, np.float64).tolist()}
-    for key, value in (("mjxmimic/manifest", json.dumps(pf.manifest)),
-                       ("mjxmimic/character_xml", pf.character_xml),
-                       ("mjxmimic/clip", json.dumps(clip))):
+    def as_json(qpos: np.ndarray, durations: np.ndarray) -> dict[str, list]:
+        return {"qpos": np.asarray(qpos, np.float64).tolist(), "durations": np.asarray(durations, np.float64).tolist()}
+
+    meta = [("mjxmimic/manifest", json.dumps(pf.manifest)), ("mjxmimic/character_xml", pf.character_xml),
+            ("mjxmimic/clip", json.dumps(as_json(pf.clip_qpos, pf.clip_durations)))]
+    if pf.other_clips:
+        meta.append(("mjxmimic/clips", json.dumps([as_json(q, d) for q, d in pf.other_clips])))
+    for key, value in meta:
         entry = model.metadata_props.add()
         entry.key, entry.value = key, value
     onnx.checker.check_model(model)
@@ -416,10 +469,10 @@ def read_onnx(path: Path) -> PolicyFile:
             raise UserError(f"{path}: not an mjxmimic ONNX policy (no '{key}' metadata)")
     manifest = _parse_manifest(meta["mjxmimic/manifest"], path)
     tensors = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
-    clip = json.loads(meta["mjxmimic/clip"])
+    clips = [json.loads(meta["mjxmimic/clip"]), *json.loads(meta.get("mjxmimic/clips", "[]"))]
+    arrays = [(np.asarray(c["qpos"], np.float64), np.asarray(c["durations"], np.float64)) for c in clips]
     return PolicyFile(manifest=manifest, params=_params(tensors), character_xml=meta["mjxmimic/character_xml"],
-                      clip_qpos=np.asarray(clip["qpos"], np.float64),
-                      clip_durations=np.asarray(clip["durations"], np.float64), path=path)
+                      clip_qpos=arrays[0][0], clip_durations=arrays[0][1], other_clips=arrays[1:], path=path)
 
 
 # -------------------------------------------------------------------------------- either format

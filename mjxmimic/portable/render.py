@@ -258,27 +258,43 @@ def goal_arrow(env: Any) -> tuple[Any, Any, Any]:
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
                   seconds: float | None = None, width: int = 640, height: int = 480,
                   on_frame: Callable[[int], Any] | None = None,
-                  push: tuple[float, float, float] | None = None) -> dict[str, Any]:
+                  push: tuple[float, float, float] | None = None,
+                  skill_sequence: str | None = None) -> dict[str, Any]:
     """Video of one episode of an exported policy (mjxmimic.portable.policy_file.PolicyFile) from
     the reference state at clip time `start`, one frame per control step, until the episode ends
     (fall, clip end, time limit) or `seconds` have passed. `push` (force N, episode time s, turn
-    from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow."""
+    from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow.
+    `skill_sequence` ("walk:4,run:4", a dataset policy) switches skills as `play` does, until a
+    fall or the sequence's end."""
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.core.kinematics import ROOT_BODY
     from mjxmimic.task import push_protocol
 
+    from mjxmimic.portable import skills
+
     character = pf.character()
-    env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
+    switches = {}
+    if skill_sequence is not None:
+        env = CpuEnv(pf.config(), character, pf.clips(), pf.weights())
+        skills.check_selectable(env)
+        sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
+        switches = dict(skills.switch_steps(env, sequence))
+        total = sum(max(1, round(t / env.control_dt)) for _, t in sequence)
+        limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))
+    else:
+        env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
+        limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     policy = pf.policy()
-    limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     scene = Scene(pf.character_xml, character.nq, ghost, width, height)
     info: dict[str, Any] = {"steps": 0, "fell": False, "reward": 0.0}
 
     def frames():
-        obs = env.reset_at(start)
+        obs = env.reset_at(start, clip=switches.get(0, 0))
         ref, _ = env.reference(env.time)
         yield scene.frame(env.data.qpos, ref)
         for k in range(limit):
+            if k > 0 and k in switches:
+                obs = env.switch(switches[k])
             force, arrows = None, []
             if push is not None:
                 newtons, at, turn = push
@@ -296,7 +312,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
             yield scene.frame(env.data.qpos, ref, arrows)
             if on_frame is not None:
                 on_frame(info["steps"])
-            if s.done:
+            if s.failed or (s.done and not switches):
                 info["fell"] = s.failed
                 break
             obs = s.obs
@@ -308,7 +324,8 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     return {"out": str(out), "frames": n, "fps": 1.0 / env.control_dt, "seconds": n * env.control_dt,
             "steps": info["steps"], "fell": info["fell"],
             "mean_reward": info["reward"] / max(info["steps"], 1), "ghost": ghost,
-            "clip": env.clip.name, "start_time": float(start), "gl": os.environ.get("MUJOCO_GL")}
+            "clip": env.clip.name, "start_time": float(start), "skill_sequence": skill_sequence,
+            "gl": os.environ.get("MUJOCO_GL")}
 
 
 def render_clip(character, clip: Any, out: Path, *, seconds: float | None = None, fps: float = 30.0,

@@ -13,8 +13,6 @@ from typing import Any
 import numpy as np
 
 from mjxmimic.core import config as config_lib
-from mjxmimic.core.character import load_character, resolve_xml
-from mjxmimic.core.errors import UserError
 from mjxmimic.portable import policy_file
 from mjxmimic.portable.policy_file import PolicyFile
 from mjxmimic.runs import folder
@@ -30,11 +28,13 @@ def mjx_eval_start_times(seed: int, episodes: int, clip_duration: float) -> np.n
     return np.asarray(start_times(jax.random.PRNGKey(seed), episodes, clip_duration), np.float32)
 
 
-def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any, checkpoint: int,
+def _training_eval(run_dir: Path, config: config_lib.Config, clips: list[Any], checkpoint: int,
                    best: bool) -> dict[str, Any] | None:
     """The manifest's training.eval (None without one): the evaluation of the best checkpoint from
     RUN/best.json, else RUN/eval.json, with the start times of its episodes so that CPU playback
-    starts where the MJX evaluation did."""
+    starts where the MJX evaluation did; for a dataset, each clip's NR and start times too (MJX
+    evaluates every clip from the same key)."""
+    clip = clips[0]
     kept = folder.read_best(run_dir) if best else None
     ev = dict(kept["eval"], checkpoint=kept["checkpoint"]) if kept else folder.read_eval(run_dir)
     if ev is None:
@@ -51,6 +51,11 @@ def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any, checkpoi
         "episodes": episodes, "seed": seed, "checkpoint": ev.get("checkpoint", ev.get("samples")),
         "start_times": [float(t) for t in starts],
     }
+    if len(clips) > 1:
+        out["clips"] = {c.name: {"nr": ev.get(f"clip/{c.name}/nr"), "nr_paper": ev.get(f"clip/{c.name}/nr_paper"),
+                                 "start_times": mjx_eval_start_times(seed, episodes, float(np.sum(c.durations[:-1]))
+                                                                     ).tolist()}
+                        for c in clips}
     of = out["checkpoint"]
     if of is not None and int(of) != checkpoint:
         out["note"] = f"{folder.EVAL} is of checkpoint {of}, the exported policy of {checkpoint}"
@@ -60,27 +65,21 @@ def _training_eval(run_dir: Path, config: config_lib.Config, clip: Any, checkpoi
 def policy_file_from_run(run_dir: Path, which: str = "best") -> PolicyFile:
     """The portable contents of one of RUN's checkpoints (folder.select_checkpoint: "best",
     "latest" or env_steps), in memory; imports JAX."""
-    from mjxmimic.motion.clip import load_clip_source
-
-    from mjxmimic.motion.dataset import is_dataset
+    from mjxmimic.envs.mjx_env import load_env_inputs
 
     run_dir = Path(run_dir)
     config = folder.load_config(run_dir)
-    if is_dataset(config.clip.name):
-        raise UserError(f"{run_dir}: trained on a dataset ({config.clip.name}); the portable policy file "
-                        f"holds one clip, so such a policy cannot be exported yet (evaluate it with `mjxmimic eval`)")
-    character = load_character(resolve_xml(config.character.xml))
-    clip = load_clip_source(config.clip.name, character)
+    character, clips, weights = load_env_inputs(config)
     step, best = folder.select_checkpoint(run_dir, which)
     params, meta = folder.load_policy_params(run_dir, step=step, best=best)
 
     training: dict[str, Any] = {"run": str(run_dir.resolve()), "checkpoint": meta["checkpoint"],
                                 "best": best, "samples": int(meta.get("env_steps", meta["checkpoint"])),
                                 "train_seconds": meta.get("elapsed_seconds")}
-    ev = _training_eval(run_dir, config, clip, meta["checkpoint"], best)
+    ev = _training_eval(run_dir, config, clips, meta["checkpoint"], best)
     if ev is not None:
         training["eval"] = ev
-    pf = policy_file.make_policy_file(config, character, clip, params, training)
+    pf = policy_file.make_policy_file(config, character, clips, params, training, weights)
     pf.path = run_dir
     return pf
 

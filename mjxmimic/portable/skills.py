@@ -1,0 +1,89 @@
+"""The skill selector at play time: `--skill-sequence "walk:4,run:4,walk:4"` switches the clip that a
+policy trained on a dataset (with the skill one-hot in its observation) follows, at the same phase
+of the new clip's cycle, without resetting the character. No JAX."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from mjxmimic.core.errors import UserError
+from mjxmimic.envs.cpu_env import CpuEnv
+
+Sequence = list[tuple[int, float]]  # (clip number, seconds)
+
+
+def parse_sequence(text: str, names: list[str]) -> Sequence:
+    """"walk:4,run:4" -> [(index of walk, 4.0), (index of run, 4.0)]; one-line errors."""
+    out = []
+    for part in text.split(","):
+        name, sep, seconds = part.strip().rpartition(":")
+        if not sep or not name:
+            raise UserError(f"--skill-sequence {text!r}: expected SKILL:SECONDS[,SKILL:SECONDS ...], got {part!r}")
+        if name not in names:
+            raise UserError(f"--skill-sequence: unknown skill {name!r} (the policy's skills: {', '.join(names)})")
+        try:
+            value = float(seconds)
+        except ValueError:
+            value = float("nan")
+        if not np.isfinite(value) or value <= 0:
+            raise UserError(f"--skill-sequence: {part.strip()!r}: the seconds must be a positive number")
+        out.append((names.index(name), value))
+    return out
+
+
+def check_selectable(env: CpuEnv) -> None:
+    """A skill sequence needs several clips and a policy that sees which one it is to follow."""
+    if len(env.clips) < 2:
+        raise UserError("--skill-sequence needs a policy trained on a dataset of clips; this one has one clip")
+    if "skill" not in env.config.env.observations.split(","):
+        raise UserError("--skill-sequence: the policy does not observe a skill (it was trained without "
+                        "env.observations=...,skill), so switching would change only the reference")
+
+
+def skill_for_key(keycode: int, count: int) -> int | None:
+    """The viewer's keys 1 to 9 pick skills 0 to 8 (of `count`); other keys pick none."""
+    index = keycode - ord("1")
+    return index if 0 <= index < min(count, 9) else None
+
+
+def switch_steps(env: CpuEnv, sequence: Sequence) -> list[tuple[int, int]]:
+    """(control step at which the segment starts, clip number) for each segment."""
+    starts, k = [], 0
+    for clip, seconds in sequence:
+        starts.append((k, clip))
+        k += max(1, round(seconds / env.control_dt))
+    return starts
+
+
+def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], sequence: Sequence,
+                  on_step: Callable[[CpuEnv, Any], Any] | None = None) -> dict[str, Any]:
+    """One run through the sequence from the first clip's start; per segment, how long the
+    character stayed up and how well it tracked that segment's clip (mean imitation reward, pose
+    error). It ends at a fall; the episode time limit does not apply."""
+    check_selectable(env)
+    obs = env.reset_at(0.0, clip=sequence[0][0])
+    segments, fell = [], False
+    for index, (clip, seconds) in enumerate(sequence):
+        if index > 0:
+            obs = env.switch(clip)
+        steps = max(1, round(seconds / env.control_dt))
+        rewards, pose = [], []
+        for _ in range(steps):
+            s = env.step(policy(obs))
+            rewards.append(s.metrics["reward/imitation"])
+            pose.append(s.metrics["error/pose"])
+            obs = s.obs
+            if on_step is not None:
+                on_step(env, s)
+            if s.failed:
+                fell = True
+                break
+        segments.append({"skill": env.clips[clip].name, "seconds": seconds, "survived_s": len(rewards) * env.control_dt,
+                         "imitation_reward": float(np.mean(rewards)), "pose_error_rad": float(np.mean(pose))})
+        if fell:
+            break
+    return {"segments": segments, "fell": fell, "survived_s": sum(s["survived_s"] for s in segments),
+            "seconds": sum(s for _, s in sequence)}

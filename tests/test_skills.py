@@ -1,0 +1,132 @@
+"""Policies of several clips on the CPU: the policy file carries every clip, `play` grades each, and
+`--skill-sequence` switches the skill one-hot (mjxmimic.portable.skills). Random weights, no JAX."""
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+
+from mjxmimic import cli
+from mjxmimic.core import config as config_lib
+from mjxmimic.envs.cpu_env import CpuEnv
+from mjxmimic.motion.clip import load_clip_source
+from mjxmimic.portable import policy_file
+from mjxmimic.portable.skills import parse_sequence
+
+SKILLED = "phase,root_height,bodies,skill"
+
+
+def _random_policy(character, clips, observations: str, weights=None):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.action_scale": 0.1,
+                                            "env.observations": observations})
+    obs = CpuEnv(config, character, clips).observation_size
+    rng = np.random.default_rng(0)
+    sizes = [obs, 32, 32, 2 * character.action_size]
+    policy = {f"hidden_{i}": {"kernel": rng.normal(scale=0.1 / np.sqrt(a), size=(a, b)).astype(np.float32),
+                              "bias": np.zeros(b, np.float32)} for i, (a, b) in enumerate(itertools.pairwise(sizes))}
+    params = {"normalizer": {"mean": np.zeros(obs, np.float32), "std": np.ones(obs, np.float32)}, "policy": policy}
+    return policy_file.make_policy_file(config, character, clips, params, weights=weights)
+
+
+@pytest.fixture(scope="module")
+def two_clips(character):
+    return [load_clip_source("slow_walk", character), load_clip_source("squat", character)]
+
+
+@pytest.fixture(scope="module")
+def skilled_file(tmp_path_factory, character, two_clips):
+    pf = _random_policy(character, two_clips, SKILLED, weights=[2.0, 1.0])
+    return policy_file.write_npz(pf, tmp_path_factory.mktemp("skills") / "skills.npz")
+
+
+def test_the_file_carries_every_clip(skilled_file, two_clips):
+    pf = policy_file.read(skilled_file)
+    clips = pf.clips()
+    assert [c.name for c in clips] == ["slow_walk", "squat"] and pf.weights() == [2.0, 1.0]
+    for ours, theirs in zip(clips, two_clips, strict=True):
+        np.testing.assert_array_equal(ours.qpos, theirs.qpos)
+        assert ours.loop == theirs.loop
+    assert pf.manifest["dataset"]["clips"][1]["frames"] == two_clips[1].num_frames
+    assert "clip/1/qpos" in pf.manifest["arrays"] and pf.clip().name == "slow_walk"
+
+
+def test_switch_keeps_the_phase_and_flips_the_skill(character, two_clips):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED})
+    env = CpuEnv(config, character, two_clips)
+    obs = env.reset_at(0.25 * float(env.clip_durations[0]))
+    assert list(obs[-2:]) == [1.0, 0.0]
+    obs = env.switch(1)
+    assert list(obs[-2:]) == [0.0, 1.0] and env.motion.clip == 1
+    assert env.time == pytest.approx(0.25 * float(env.clip_durations[1]), abs=1e-5)
+    ref, _ = env.reference(env.time)  # the reward now grades the squat
+    assert ref.shape == (character.nq,)
+
+
+def test_play_grades_every_clip(skilled_file, capsys):
+    assert cli.main(["play", str(skilled_file), "--episodes", "2", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["clips"]
+    assert set(rows) == {"slow_walk", "squat"}
+    assert all(0 <= r["nr"] <= 1 and r["episodes"] == 2 and r["mjx_nr"] is None for r in rows.values())
+    assert cli.main(["play", str(skilled_file), "--clip", "squat", "--episodes", "1", "--json"]) == 0
+    assert set(json.loads(capsys.readouterr().out)["clips"]) == {"squat"}
+
+
+def test_skill_sequence(skilled_file, capsys):
+    assert cli.main(["play", str(skilled_file), "--skill-sequence", "slow_walk:0.3, squat:0.2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["seconds"] == pytest.approx(0.5)
+    first = out["segments"][0]
+    assert first["skill"] == "slow_walk" and 0 < first["survived_s"] <= 0.3 + 1e-9
+    if not out["fell"]:
+        assert [s["skill"] for s in out["segments"]] == ["slow_walk", "squat"]
+        assert out["survived_s"] == pytest.approx(0.5, abs=0.04)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("walk:4", "unknown skill 'walk' (the policy's skills: slow_walk, squat)"),
+    ("slow_walk", "expected SKILL:SECONDS"),
+    ("slow_walk:-1", "the seconds must be a positive number"),
+    ("slow_walk:soon", "the seconds must be a positive number"),
+])
+def test_bad_sequences_are_one_line(skilled_file, capsys, text, message):
+    assert cli.main(["play", str(skilled_file), "--skill-sequence", text]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and message in err
+
+
+def test_a_sequence_needs_several_clips_and_the_skill_observation(tmp_path, character, two_clips, capsys):
+    one = policy_file.write_npz(_random_policy(character, two_clips[:1], "phase,root_height,bodies"),
+                                tmp_path / "one.npz")
+    assert cli.main(["play", str(one), "--skill-sequence", "slow_walk:1"]) == 2
+    assert "needs a policy trained on a dataset" in capsys.readouterr().err
+    blind = policy_file.write_npz(_random_policy(character, two_clips, "phase,root_height,bodies"),
+                                  tmp_path / "blind.npz")
+    assert cli.main(["play", str(blind), "--skill-sequence", "slow_walk:1"]) == 2
+    assert "does not observe a skill" in capsys.readouterr().err
+
+
+def test_parse_sequence():
+    assert parse_sequence("a:1,b:2.5,a:0.5", ["a", "b"]) == [(0, 1.0), (1, 2.5), (0, 0.5)]
+
+
+def test_render_a_skill_sequence(skilled_file, tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="the render extra is not installed")
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.render import render_policy, setup_gl
+
+    try:
+        setup_gl()
+    except UserError as err:
+        pytest.skip(f"no headless OpenGL: {err}")
+    pf = policy_file.read(skilled_file)
+    info = render_policy(pf, tmp_path / "skills.mp4", skill_sequence="slow_walk:0.2,squat:0.2", width=160, height=128)
+    steps = 2 * round(0.2 * pf.config().env.control_hz)
+    assert info["skill_sequence"] == "slow_walk:0.2,squat:0.2"
+    assert info["frames"] == info["steps"] + 1 and (info["fell"] or info["steps"] == steps)
+
+
+def test_viewer_keys_pick_skills():
+    from mjxmimic.portable.skills import skill_for_key
+
+    assert [skill_for_key(ord(k), 3) for k in "1234a"] == [0, 1, 2, None, None]
