@@ -25,7 +25,7 @@ from mjxmimic.runs import folder
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip", help="clip NAME or PATH (default: the config's clip)")
     parser.add_argument("--character", metavar="NAME|PATH",
-                        help="the simulated character (character.xml): humanoid (default), dog3d, or an MJCF file")
+                        help="the simulated character (character.xml): humanoid (default), dog3d, g1, or an MJCF file")
     parser.add_argument("--task", choices=config_lib.TASKS,
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
                              "direction at a commanded speed; strike = hit a target (the spinkick)")
@@ -37,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--name", help="run name: the folder runs/NAME")
     parser.add_argument("--seed", type=int, help="PRNG seed (run.seed)")
     parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
+    parser.add_argument("--wandb", metavar="PROJECT", default=None,
+                        help="also log to this Weights & Biases project (run.wandb_project; the wandb extra; "
+                             "WANDB_MODE=offline without network)")
 
 
 def default_preset() -> str:
@@ -54,6 +57,8 @@ def default_preset() -> str:
 def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool]:
     """(config, run folder, resuming) from the command line; nothing is written."""
     overrides = config_lib.parse_set_args(args.overrides or [])
+    if getattr(args, "wandb", None):
+        overrides["run.wandb_project"] = args.wandb
     if args.resume is not None:
         for flag in ("clip", "character", "preset", "out", "name"):
             if getattr(args, flag) is not None:
@@ -106,6 +111,10 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.time()
     config, run_dir, resume = resolve_run(args)
+    if config.run.wandb_project:
+        from mjxmimic.runs.wandb_log import check_available
+
+        check_available()
     say = lambda text: print(f"mjxmimic train: {text}", file=sys.stderr, flush=True)  # noqa: E731
     say(f"building the env ({config.clip.name}, {config.ppo.num_envs:,} envs); the first iteration "
         f"then waits for JAX to compile the train step")

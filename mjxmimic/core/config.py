@@ -127,6 +127,8 @@ class RunConfig:
     # also grade the stochastic (training) policy on the same starts: stochastic_* beside the NR of
     # the deterministic one, which is what playback and export run
     eval_stochastic: bool = False
+    wandb_project: str = ""  # also log to this Weights & Biases project (mjxmimic.runs.wandb_log); "" = off
+    wandb_videos: bool = True  # with W&B: a video of each new best policy, where rendering works
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Run metrics: one JSON object per line in RUN/metrics.jsonl, mirrored to TensorBoard (RUN/tb/).
+"""Run metrics: one JSON object per line in RUN/metrics.jsonl, mirrored to TensorBoard (RUN/tb/)
+and, where asked, to another tracker (Weights & Biases: mjxmimic.runs.wandb_log).
 
 Each line has "step" (environment samples so far) and "wall" (seconds since the run began,
 summed over resumed calls), plus slash-named scalars. Appends, so a resumed run continues the
@@ -24,8 +25,10 @@ def _plain(value: Any) -> Any:
 
 
 class MetricsLog:
-    def __init__(self, run_dir: Path, tensorboard: bool = True):
+    def __init__(self, run_dir: Path, tensorboard: bool = True, mirror: Any = None):
+        """`mirror` has log(step, record) and close()."""
         self.path = metrics_path(run_dir)
+        self._mirror = mirror
         self._file = self.path.open("a")
         self._tb = None
         if tensorboard:
@@ -42,12 +45,16 @@ class MetricsLog:
             for k, v in record.items():
                 if k != "step" and isinstance(v, (int, float)) and not isinstance(v, bool):
                     self._tb.add_scalar(k, v, global_step=int(step))
+        if self._mirror is not None:
+            self._mirror.log(step, record)
         return record
 
     def close(self) -> None:
         self._file.close()
         if self._tb is not None:
             self._tb.close()
+        if self._mirror is not None:
+            self._mirror.close()
 
     def __enter__(self) -> "MetricsLog":
         return self

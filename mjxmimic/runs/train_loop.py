@@ -80,6 +80,14 @@ class _StopFlag:
             signal.signal(sig, previous)
 
 
+def _policy_file(config: config_lib.Config, env, params: Any):
+    """The policy as an in-memory portable file (for a video of it)."""
+    from mjxmimic.portable.policy_file import make_policy_file
+
+    weights = [float(w) for w in env.spec.lib.clip_weight] if len(env.clips) > 1 else None
+    return make_policy_file(config, env.character, env.clips, params, weights=weights)
+
+
 def _device_info() -> dict:
     """The accelerator a run trained on, for its summary (so results name their hardware)."""
     import jax
@@ -148,30 +156,36 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     def elapsed() -> float:
         return prior_elapsed + time.time() - t_start
 
-    log = MetricsLog(run_dir)
+    tracker = None
+    if run_cfg.wandb_project:
+        from mjxmimic.runs.wandb_log import WandbRun
+
+        tracker = WandbRun(run_dir, config)
+    log = MetricsLog(run_dir, mirror=tracker)
     state = {"last_eval": None, "steady_samples": 0, "steady_seconds": 0.0, "cache_after_first": None,
              "iter_seconds": 0.0, "eval_seconds": 0.0}
 
     best = folder.read_best(run_dir) if resume else None
     best_metric = "nr_paper" if config.reward.kind == "paper" else "nr"
 
-    def keep_if_best(result: dict) -> None:
+    def keep_if_best(result: dict) -> bool:
         """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
-        so that best.json never names a checkpoint that is not there)."""
+        so that best.json never names a checkpoint that is not there); whether it was the best."""
         nonlocal best
         if best is not None and result[best_metric] <= best["value"]:
-            return
+            return False
         checkpoint.save(run_dir, ts, iterations=iterations, elapsed_seconds=elapsed(), best=True,
                         extra={"samples_per_iteration": spi})
         best = {"metric": best_metric, "value": result[best_metric], "checkpoint": env_steps,
                 "eval": dict(result, seed=eval_seed)}
         folder.write_json_atomic(folder.best_path(run_dir), best)
+        return True
 
     def run_eval() -> dict:
         nonlocal last_eval_steps, time_to_skill
         t = time.time()
         result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
-        keep_if_best(result)
+        improved = keep_if_best(result)
         state["eval_seconds"] = time.time() - t
         last_eval_steps = env_steps
         if run_cfg.target_nr > 0 and time_to_skill is None and result["nr"] >= run_cfg.target_nr:
@@ -180,6 +194,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
             result["time_to_skill_s"] = time_to_skill
         log.write(env_steps, elapsed(), {"iteration": iterations,
                                          **{f"eval/{k}": v for k, v in result.items()}})
+        if improved and tracker is not None:
+            tracker.best_video(env_steps, lambda: _policy_file(config, env, export_params(ts)))
         state["last_eval"] = (env_steps, result)
         return result
 
