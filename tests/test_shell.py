@@ -74,6 +74,15 @@ def test_resume_after_a_crash_drops_the_rows_past_the_checkpoint(tmp_path):
     assert all(isinstance(r, dict) for r in read(run_dir))
 
 
+def test_resume_of_a_run_killed_before_its_first_checkpoint_starts_it_over(tmp_path):
+    run_dir = tmp_path / "run"
+    config = _config()
+    folder.write_config(run_dir, config)  # what a kill -9 during the first iterations leaves
+    (run_dir / "metrics.jsonl").write_text('{"step": 512, "wall": 1.0, "samples_per_s": 1.0}\n{"step": 1024, "wa')
+    out = train(config, run_dir, resume=True, env=StandInEnv(), progress=False)
+    assert out.reason == "done" and _steps(run_dir) == [512 * i for i in range(1, 11)]
+
+
 def test_a_corrupt_newest_checkpoint_falls_back_to_the_one_before(tmp_path, capfd):
     run_dir = tmp_path / "run"
     train(_config(), run_dir, env=StandInEnv(), progress=False)

@@ -132,7 +132,7 @@ def test_resume_errors_are_one_line(capsys, tmp_path):
     assert "run folder not found" in _one_line_error(capsys)
     (tmp_path / "empty").mkdir()
     assert cli.main(["train", "--resume", str(tmp_path / "empty")]) == 2
-    assert "no checkpoint" in _one_line_error(capsys)
+    assert "not a run folder (no config.json)" in _one_line_error(capsys)
 
 
 def _standin_config(**run):

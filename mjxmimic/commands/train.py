@@ -69,8 +69,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         bad = [k for k in overrides if not k.startswith(("run.", "ppo.learning_rate"))]
         if bad:
             raise UserError(f"--set {bad[0]}: only run.* and ppo.learning_rate* keys may change on --resume")
-        folder.require_checkpoint(run_dir)
-        config = folder.load_config(run_dir)
+        config = folder.load_config(run_dir)  # a run with no checkpoint yet starts over from it
         if args.seed is not None:
             raise UserError("--seed cannot be combined with --resume (the checkpoint holds the PRNG state)")
         config = config_lib.apply_overrides(config, overrides)

@@ -13,7 +13,7 @@ positions with the rest offset between the two bodies carried in the source body
 positions are scaled by the ratio of leg lengths. A damped least-squares (Levenberg-Marquardt)
 solve on MuJoCo's body Jacobians, warm-started from the previous frame, keeps hinges within their
 range by projection. Our own solver rather than mink: the problem has only weighted pose targets
-and box limits, which 60 lines on MuJoCo's Jacobians solve, and it adds no dependency (mink brings
+and box limits, which a short solve on MuJoCo's Jacobians handles, and it adds no dependency (mink brings
 a QP solver). The clip is then put on the ground, and a report gives the end-effector error (to
 the scaled source, relative to the root), foot skating, penetration and joint-limit hits.
 """

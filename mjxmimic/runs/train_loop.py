@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import math
+import shutil
 import signal
 import sys
 import time
@@ -131,6 +132,13 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
+    if resume and checkpoint.latest_checkpoint(run_dir) is None:
+        # stopped (kill -9) before its first checkpoint: nothing to continue, so start over with
+        # its config, dropping what that attempt wrote
+        resume = False
+        metrics_log.truncate(run_dir, -1)
+        folder.best_path(run_dir).unlink(missing_ok=True)
+        shutil.rmtree(folder.best_dir(run_dir), ignore_errors=True)
     if resume:
         restored, meta = checkpoint.restore(run_dir, ts)
         # fresh env states (not checkpointed), drawn from the restored key
