@@ -5,8 +5,9 @@ training (slow)."""
 
 from __future__ import annotations
 
-import csv
 import json
+import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -14,7 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_sweep import FAKE_TRAIN, REPO, TINY, write_spec
+from test_sweep import REPO, TINY, report_rows, sweep_both_ways, write_spec
 
 from mjxmimic import cli
 from mjxmimic.core.errors import UserError
@@ -82,41 +83,25 @@ def ray_sweep(spec_path: Path, *train: str, timeout: float = 300) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def report_rows(out: Path) -> list[dict]:
-    return [{k: v for k, v in r.items() if k not in ("wall_s", "samples_per_s")}
-            for r in csv.DictReader((out / "report.csv").open())]
-
-
 def test_ray_executor_matches_local_runner(tmp_path, monkeypatch):
     """The submitit test's sweep through Ray Tune: one run finishes, the failing one is isolated,
     and the report rows match the local runner's."""
     pytest.importorskip("ray.tune")
-    fake = tmp_path / "fake_train.py"
-    fake.write_text(FAKE_TRAIN)
-    (tmp_path / "fail.txt").write_text("{}")
-    monkeypatch.setenv("FAKE_LOG", str(tmp_path / "calls.jsonl"))
-    monkeypatch.setenv("FAKE_SLEEP", "0.5")
     monkeypatch.setenv("PYTHONPATH", str(REPO))
-    rows = {}
-    for name in ("local", "ray"):
-        spec_path = write_spec(tmp_path / f"{name}.json", preset="cpu", clips=["squat", str(tmp_path / "fail.txt")],
-                               set={"run.total_samples": 256}, out=str(tmp_path / name))
-        spec = sweep.load_spec(spec_path)
-        if name == "local":
-            results = sweep.Runner(spec, gpus=[], train_command=[sys.executable, str(fake)], echo=lambda s: None).run()
-            sweep.write_report(spec, echo=lambda s: None)
-        else:
-            results = ray_sweep(spec_path, sys.executable, str(fake))
-            assert [p.name for p in (spec.out / "ray").iterdir()]  # went through Tune
-            assert "boom: made to fail" in (spec.out / "logs" / "fail-s0.log").read_text()
-        assert sorted(results.values()) == ["failed", "finished"], results
-        rows[name] = report_rows(spec.out)
+
+    def through_ray(spec, spec_path, fake):
+        results = ray_sweep(spec_path, sys.executable, str(fake))
+        assert [p.name for p in (spec.out / "ray").iterdir()]  # went through Tune
+        return results
+
+    rows = sweep_both_ways(tmp_path, monkeypatch, "ray", through_ray)
     assert rows["ray"] == rows["local"]
 
 
 FAKE_EVALS = textwrap.dedent("""
     # Stand-in for `mjxmimic train` with an evaluation every 64 samples (0.4 s apart): NR 0.9 for
-    # seed 0, 0.1 (starting 2 s later) for seed 1; SIGINT -> a checkpoint, exit 130.
+    # seed 0; 0.1 for seed 1, which starts 1.5 s after seed 0's first evaluation (so that seed 0 is
+    # the first at ASHA's first rung); SIGINT -> a checkpoint, exit 130.
     import json, signal, sys, time
     from pathlib import Path
     args = sys.argv[1:]
@@ -132,7 +117,9 @@ FAKE_EVALS = textwrap.dedent("""
     from mjxmimic.core import config as c
     c.save(c.make_config(opt("--preset"), {**sets, "clip.name": opt("--clip"), "run.seed": str(seed)}),
            out / "config.json")
-    time.sleep(2.0 * seed)
+    while seed and not (out.parent / "squat-s0" / "metrics.jsonl").exists():
+        time.sleep(0.1)
+    time.sleep(1.5 * seed)
     total, nr = int(sets["run.total_samples"]), 0.9 - 0.8 * seed
     while step < total:
         time.sleep(0.4)
@@ -143,7 +130,7 @@ FAKE_EVALS = textwrap.dedent("""
 """)
 
 
-def test_ray_scheduler_prunes_the_weaker_run(tmp_path, monkeypatch):
+def test_ray_scheduler_prunes_the_weaker_run(tmp_path, monkeypatch, capsys):
     """ASHA from the spec's ray block: the run that is behind at the first rung is stopped (it
     checkpoints), reported as pruned with its last NR, and left as it is by the next call."""
     pytest.importorskip("ray.tune")
@@ -164,10 +151,38 @@ def test_ray_scheduler_prunes_the_weaker_run(tmp_path, monkeypatch):
     assert int(rows["squat-s1"]["nr_at_samples"]) < 1024
     assert "Pruned: stopped early by the Ray Tune scheduler" in (out / "report.md").read_text()
     # again (any executor): nothing to do, the pruned run stays pruned
+    assert cli.main(["sweep", str(spec_path), "--dry-run"]) == 0
+    printed = capsys.readouterr().out
+    assert "(0 to start, 0 to resume, 1 finished, 1 pruned)" in printed
+    assert "squat-s1: skip (pruned by the scheduler)" in printed
     lines = []
     assert sweep.Runner(sweep.load_spec(spec_path), gpus=[], echo=lines.append).run() == {
         "squat-s0": "finished", "squat-s1": "pruned"}
     assert "[2/2] squat-s1: pruned already, skipped" in lines
+
+
+def test_ray_sweep_sigterm_checkpoints_every_trial(tmp_path):
+    """SIGTERM (or Ctrl-C) to a Ray sweep: Tune stops every trial, each training checkpoints, and
+    the runs are recorded interrupted, to be resumed by the next call."""
+    pytest.importorskip("ray.tune")
+    fake = tmp_path / "fake_evals.py"
+    fake.write_text(FAKE_EVALS)
+    spec_path = write_spec(tmp_path / "s.json", preset="cpu", clips=["squat"], seeds=[0, 1],
+                           set={"run.total_samples": 100_000}, out=str(tmp_path / "out"))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-c", RAY_SWEEP, str(spec_path), sys.executable, str(fake)], cwd=REPO,
+                            env={**os.environ, "PYTHONPATH": str(REPO)}, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT)
+    deadline = time.time() + 120
+    while not all((out / f"squat-s{s}" / "metrics.jsonl").exists() for s in (0, 1)) and time.time() < deadline:
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    printed = proc.communicate(timeout=120)[0].decode()
+    assert proc.returncode != 0 and "KeyboardInterrupt" in printed, printed[-3000:]
+    state = json.loads((out / "sweep.json").read_text())["runs"]
+    assert {(r["status"], r["exit_code"]) for r in state.values()} == {("interrupted", 130)}
+    assert all(list((out / f"squat-s{s}" / "checkpoints").iterdir()) for s in (0, 1))
+    assert [p.action for p in sweep.plan(sweep.load_spec(spec_path))] == ["resume", "resume"]
 
 
 @pytest.mark.slow

@@ -89,10 +89,14 @@ def run(args: argparse.Namespace) -> int:
             else f"one run after another{' on GPU ' + gpus[0] if gpus else ''}")
 
     if args.dry_run:
+        from mjxmimic.ops.sweep.runner import PRUNED
+
         plans = sweep.plan(spec)
         counts = {a: sum(p.action == a for p in plans) for a in ("start", "resume", "skip")}
+        pruned = sum(p.why == PRUNED for p in plans)
+        skipped = f"{counts['skip'] - pruned} finished" + (f", {pruned} pruned" if pruned else "")
         _echo(f"sweep {spec.name}: {len(plans)} runs in {spec.out} ({counts['start']} to start, "
-              f"{counts['resume']} to resume, {counts['skip']} finished); {mode}")
+              f"{counts['resume']} to resume, {skipped}); {mode}")
         for p in sorted(plans, key=lambda p: p.run.order):
             _echo(f"  {p.run.name}: {p.action} ({p.why})")
             if p.action != "skip":

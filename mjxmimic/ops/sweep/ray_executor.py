@@ -54,6 +54,7 @@ CheckpointConfig = getattr(tune, "CheckpointConfig", None) or ray.train.Checkpoi
 HEARTBEAT_S = 5.0  # a result at least this often, so that a stop does not wait for an evaluation
 POLL_S = 0.5
 STOP_WAIT_S = 300  # for the training's checkpoint after its SIGINT
+START_WAIT_S = 120  # for Ray to start or answer at --address (it retries a wrong address forever)
 
 
 class TrainTrial(tune.Trainable):
@@ -182,8 +183,9 @@ class _TrialHandle(PolledHandle):
         if self.returncode is not None:
             return self.returncode
         end = self.executor.ends.ends.get(self.run)
-        if end is None and not self.executor.alive():
-            end = (1, False, f"the Tune experiment ended: {self.executor.error or 'without this trial'}")
+        if end is None and not self.executor.alive():  # an interrupt ends trials without a callback
+            end = ((130, False, None) if self.executor.interrupt.event.is_set() else
+                   (1, False, f"the Tune experiment ended: {self.executor.error or 'without this trial'}"))
         if end is not None:
             rc, self.pruned, error = end
             if error:
@@ -243,7 +245,8 @@ class RayExecutor:
         if self._thread is None:
             return
         self._feed.closed = True
-        self._thread.join()
+        if self._thread.ident is not None:
+            self._thread.join()
 
     def _launch(self) -> None:
         # Ray, when it starts here, ties its processes to the thread that starts it (they get
@@ -251,9 +254,13 @@ class RayExecutor:
         ready: queue.Queue = queue.Queue()
         self._thread = threading.Thread(target=self._fit, args=(ready,), daemon=True)
         self._thread.start()
-        error = ready.get()
+        where = f"--address {self.address}" if self.address else "a local Ray cluster"
+        try:
+            error = ready.get(timeout=START_WAIT_S)
+        except queue.Empty:
+            self._thread = threading.Thread()  # left behind in ray.init: nothing to wait for in close
+            raise UserError(f"{where}: no Ray cluster answered within {START_WAIT_S} s") from None
         if isinstance(error, str):
-            where = f"--address {self.address}" if self.address else "a local Ray cluster"
             raise UserError(f"{where}: Ray did not start ({error})")
         if error is not None:
             raise error

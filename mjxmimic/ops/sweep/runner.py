@@ -1,6 +1,6 @@
 """Running a sweep: plan (skip, resume or start each run from its folder), one `mjxmimic train`
 per run through an executor (mjxmimic.ops.sweep.executors: local subprocesses, one per GPU when
-several are visible, or Slurm jobs), the state file, signals."""
+several are visible, Slurm jobs or Ray Tune trials), the state file, signals."""
 
 from __future__ import annotations
 
@@ -354,7 +354,7 @@ class Runner:
         if is_finished(run_dir, run.config):
             status = "finished"
         elif getattr(proc, "pruned", False):
-            status = "pruned"  # a Ray Tune scheduler stopped it (the training checkpointed first)
+            status = "pruned"  # a Ray Tune scheduler stopped it (its training checkpoints and exits)
         elif rc == 0:
             status = "stopped"  # run.max_seconds (or the sweep budget): resumed by the next sweep call
         elif rc == 130 or self._stop.is_set():
