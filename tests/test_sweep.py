@@ -430,33 +430,50 @@ SLURM_SWEEP = textwrap.dedent("""
 """)
 
 
-def test_slurm_executor_through_submitits_local_cluster(tmp_path, monkeypatch):
-    """The same spec through the slurm executor (submitit's local stand-in): one run finishes, the
-    failing one is isolated, and the report rows match the local runner's."""
-    pytest.importorskip("submitit")
+def report_rows(out: Path) -> list[dict]:
+    """OUT/report.csv's rows without the timing columns (they differ between executors)."""
+    return [{k: v for k, v in r.items() if k not in ("wall_s", "samples_per_s")}
+            for r in csv.DictReader((out / "report.csv").open())]
+
+
+def sweep_both_ways(tmp_path: Path, monkeypatch, name: str, through) -> dict[str, list[dict]]:
+    """A 2-run spec (squat finishes, a clip named fail fails) through the local runner and through
+    `through(spec, spec_path, fake_train)` (another executor; returns the results); the report
+    rows of both, by "local" and `name`."""
     fake = tmp_path / "fake_train.py"
     fake.write_text(FAKE_TRAIN)
     (tmp_path / "fail.txt").write_text("{}")
     monkeypatch.setenv("FAKE_LOG", str(tmp_path / "calls.jsonl"))
     monkeypatch.setenv("FAKE_SLEEP", "0.5")
     rows = {}
-    for name in ("local", "slurm"):
-        spec_path = write_spec(tmp_path / f"{name}.json", preset="cpu", clips=["squat", str(tmp_path / "fail.txt")],
-                               set={"run.total_samples": 256}, out=str(tmp_path / name))
+    for which in ("local", name):
+        spec_path = write_spec(tmp_path / f"{which}.json", preset="cpu", clips=["squat", str(tmp_path / "fail.txt")],
+                               set={"run.total_samples": 256}, out=str(tmp_path / which))
         spec = sweep.load_spec(spec_path)
-        if name == "local":
+        if which == "local":
             results = sweep.Runner(spec, gpus=[], train_command=[sys.executable, str(fake)], echo=lambda s: None).run()
             sweep.write_report(spec, echo=lambda s: None)
         else:
-            proc = subprocess.run([sys.executable, "-c", SLURM_SWEEP, str(spec_path), str(fake)], cwd=REPO,
-                                  capture_output=True, text=True, timeout=300)
-            assert proc.returncode == 0, proc.stderr[-2000:]
-            results = json.loads(proc.stdout.strip().splitlines()[-1])
-            assert list((spec.out / "slurm").glob("*_submitted.pkl"))  # went through submitit
+            results = through(spec, spec_path, fake)
             assert "boom: made to fail" in (spec.out / "logs" / "fail-s0.log").read_text()
         assert sorted(results.values()) == ["failed", "finished"], results
-        rows[name] = [{k: v for k, v in r.items() if k not in ("wall_s", "samples_per_s")}
-                      for r in csv.DictReader((spec.out / "report.csv").open())]
+        rows[which] = report_rows(spec.out)
+    return rows
+
+
+def test_slurm_executor_through_submitits_local_cluster(tmp_path, monkeypatch):
+    """The same spec through the slurm executor (submitit's local stand-in): one run finishes, the
+    failing one is isolated, and the report rows match the local runner's."""
+    pytest.importorskip("submitit")
+
+    def slurm(spec, spec_path, fake):
+        proc = subprocess.run([sys.executable, "-c", SLURM_SWEEP, str(spec_path), str(fake)], check=False, cwd=REPO,
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        assert list((spec.out / "slurm").glob("*_submitted.pkl"))  # went through submitit
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    rows = sweep_both_ways(tmp_path, monkeypatch, "slurm", slurm)
     assert rows["slurm"] == rows["local"]
 
 

@@ -2,12 +2,15 @@
 
     mjxmimic sweep SPEC [--dry-run] [--out DIR] [--gpus auto|none|N|ID,ID] [--max-seconds S]
                         [--executor local|slurm [--partition P] [--time-limit MIN] [--gpus-per-job N]]
+                        [--executor ray [--address ADDR] [--gpus-per-trial N] [--cpus-per-trial N]]
     mjxmimic sweep SPEC --report
 
 SPEC is a JSON file (format: mjxmimic/sweep.py; examples in experiments/sweeps/). Each run is a
 normal run folder OUT/RUN (OUT: the spec's "out", default runs/sweeps/NAME), trained by a
 subprocess `mjxmimic train`, one after another, or one per GPU at the same time when two or more
-are visible; with --executor slurm, by a Slurm job per run (mjxmimic.ops.sweep.executors). A failed run is recorded (OUT/sweep.json, its log in OUT/logs/) and the others go on.
+are visible; with --executor slurm, by a Slurm job per run (mjxmimic.ops.sweep.executors); with --executor
+ray, by a Ray Tune trial per run, whose scheduler (the spec's "ray" block) may prune weak runs
+(mjxmimic.ops.sweep.ray_executor). A failed run is recorded (OUT/sweep.json, its log in OUT/logs/) and the others go on.
 Running the same spec again skips finished runs, resumes interrupted or time-stopped ones and
 retries failed ones. At the end (or with --report alone) OUT/report.md, OUT/report.csv and
 OUT/curves.png (needs matplotlib) are written.
@@ -19,7 +22,7 @@ is left (it stops with a checkpoint, and the next call resumes it), and no run s
 than a minute left.
 
 Exit status: 0 when no run failed (some may have stopped at their time limit: run the sweep
-again to continue them), 1 when a run failed, 2 for a bad spec, 130 on Ctrl-C (the running
+again to continue them; pruned runs stay as they are), 1 when a run failed, 2 for a bad spec, 130 on Ctrl-C (the running
 trainings checkpoint first).
 """
 
@@ -44,9 +47,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
     parser.add_argument("--runs-per-gpu", type=int, default=1, metavar="N",
                         help="local: N runs share each GPU at a time, each with its share of the GPU's memory")
-    parser.add_argument("--executor", choices=("local", "slurm"), default="local",
-                        help="where runs execute: subprocesses here (default), or a Slurm job per run "
-                             "through submitit (pip install 'mjxmimic[slurm]')")
+    parser.add_argument("--executor", choices=("local", "slurm", "ray"), default="local",
+                        help="where runs execute: subprocesses here (default), a Slurm job per run "
+                             "through submitit (pip install 'mjxmimic[slurm]'), or a Ray Tune trial per run "
+                             "(pip install 'mjxmimic[ray]')")
     parser.add_argument("--partition", default=None, help="slurm: the partition to submit to")
     parser.add_argument("--time-limit", type=int, default=60, metavar="MIN",
                         help="slurm: minutes per job; a job that reaches it is requeued and resumes (default 60)")
@@ -55,6 +59,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cluster", choices=("auto", "local"), default="auto",
                         help="slurm: auto = the Slurm cluster this machine submits to; local = submitit's "
                              "local stand-in, the same jobs as processes on this machine (to try a sweep)")
+    parser.add_argument("--address", default=None,
+                        help="ray: the Ray cluster to run on (as `ray start` prints it; default: start a local one)")
+    parser.add_argument("--gpus-per-trial", type=float, default=None, metavar="N",
+                        help="ray: GPUs per run (default 1 when the cluster has GPUs, else 0)")
+    parser.add_argument("--cpus-per-trial", type=float, default=1, metavar="N", help="ray: CPUs per run (default 1)")
 
 
 def _echo(text: str) -> None:
@@ -80,10 +89,14 @@ def run(args: argparse.Namespace) -> int:
             else f"one run after another{' on GPU ' + gpus[0] if gpus else ''}")
 
     if args.dry_run:
+        from mjxmimic.ops.sweep.runner import PRUNED
+
         plans = sweep.plan(spec)
         counts = {a: sum(p.action == a for p in plans) for a in ("start", "resume", "skip")}
+        pruned = sum(p.why == PRUNED for p in plans)
+        skipped = f"{counts['skip'] - pruned} finished" + (f", {pruned} pruned" if pruned else "")
         _echo(f"sweep {spec.name}: {len(plans)} runs in {spec.out} ({counts['start']} to start, "
-              f"{counts['resume']} to resume, {counts['skip']} finished); {mode}")
+              f"{counts['resume']} to resume, {skipped}); {mode}")
         for p in sorted(plans, key=lambda p: p.run.order):
             _echo(f"  {p.run.name}: {p.action} ({p.why})")
             if p.action != "skip":
@@ -102,6 +115,16 @@ def run(args: argparse.Namespace) -> int:
                                  gpus_per_job=args.gpus_per_job, max_jobs=args.max_jobs,
                                  cluster=None if args.cluster == "auto" else args.cluster)
         mode = f"a job per run on the {executor.where}"
+    if args.executor == "ray":
+        from mjxmimic.ops.sweep.executors import ray_executor
+
+        executor = ray_executor(spec.out, spec.ray, address=args.address, gpus_per_trial=args.gpus_per_trial,
+                                cpus_per_trial=args.cpus_per_trial)
+        mode = f"a Tune trial per run on a {executor.where}"
+        if spec.ray:
+            mode += f", {spec.ray['scheduler']} on {spec.ray['metric']} from {spec.ray['grace_period']:,} samples"
+    elif spec.ray:
+        _echo("note: the spec's \"ray\" block applies to --executor ray only")
     _echo(f"sweep {spec.name}: {len(spec.runs)} runs in {spec.out}; {mode}")
     runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo, executor=executor)
     try:
@@ -112,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     paths = sweep.write_report(spec, echo=lambda s: _echo(f"mjxmimic sweep: {s}"))
     statuses = list(results.values())
-    counts = {s: statuses.count(s) for s in ("finished", "stopped", "interrupted", "failed", "pending")}
+    counts = {s: statuses.count(s) for s in ("finished", "pruned", "stopped", "interrupted", "failed", "pending")}
     summary = ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     _echo(f"sweep {spec.name}: {summary}; report: {', '.join(str(p) for p in paths)}")
     if counts["stopped"] or counts["pending"] or counts["interrupted"]:

@@ -12,7 +12,8 @@ Spec (JSON; one object; unknown fields are errors):
       "runs": [{"env.action_mode": "residual"}, {}],   # a list of override sets
       "seeds": [0, 1],                       # default [0] (or one integer)
       "set": {"run.max_seconds": 240},      # overrides common to every run
-      "out": "runs/sweeps/NAME"              # default runs/sweeps/NAME (relative to the cwd)
+      "out": "runs/sweeps/NAME",             # default runs/sweeps/NAME (relative to the cwd)
+      "ray": {"scheduler": "asha", "grace_period": 2000000}   # --executor ray only (below)
     }
 
 Runs = clips x grid (the Cartesian product of its value lists) x runs entries x seeds. A config
@@ -45,10 +46,18 @@ the runs that never started or failed before their first checkpoint (their folde
 first). A run folder whose config.json disagrees with the spec (other than run.* keys) is an
 error before anything starts.
 
+With --executor ray each run is a Ray Tune trial (`ray_executor`). The optional "ray" block picks
+a Tune scheduler that compares the runs' evaluations as they appear: "scheduler" (asha), "metric"
+(eval/nr, default, or eval/fall_rate), "grace_period" (samples a run trains before it may be
+stopped; required), "max_t" (default: the largest run.total_samples) and "reduction_factor"
+(default 4). A run it stops has checkpointed; it is recorded "pruned", and later calls skip it
+(remove its folder to train it again).
+
 This package does not import JAX; the parent process only reads and writes files.
 
 Modules: `spec` (the spec file and its expansion into runs), `runner` (plan, subprocesses, GPUs,
-signals), `state` (OUT/sweep.json), `report` (tables and curves).
+signals), `executors` (local, Slurm), `ray_executor` (Ray Tune), `state` (OUT/sweep.json),
+`report` (tables and curves).
 """
 
 from mjxmimic.ops.sweep.report import write_report, write_tables

@@ -6,8 +6,10 @@ slurm: a Slurm job per run through submitit (the `slurm` extra). A job that reac
     limit (or is preempted) is requeued and resumes from the run's checkpoint; the runner keeps
     as many jobs in flight as the spec has runs unless told fewer. submitit's local cluster runs
     the same jobs on this machine, which tests and a laptop can use.
+ray: a Ray Tune trial per run on a Ray cluster (the `ray` extra; mjxmimic.ops.sweep.ray_executor),
+    so that a Tune scheduler from the spec's "ray" block can stop weak runs early.
 
-Both return a handle with the part of subprocess.Popen's interface the runner uses: poll, wait,
+Each returns a handle with the part of subprocess.Popen's interface the runner uses: poll, wait,
 send_signal, kill, returncode.
 """
 
@@ -79,12 +81,30 @@ class TrainJob:
         return submitit.helpers.DelayedSubmission(self)
 
 
-class _JobHandle:
+class PolledHandle:
+    """A handle whose `poll` says when the run ended; `wait` polls it."""
+
+    def __init__(self):
+        self.returncode: int | None = None
+
+    def poll(self) -> int | None:
+        raise NotImplementedError
+
+    def wait(self, timeout: float | None = None) -> int:
+        end = None if timeout is None else time.time() + timeout
+        while self.poll() is None:
+            if end is not None and time.time() > end:
+                raise subprocess.TimeoutExpired(repr(self), timeout)
+            time.sleep(0.5)
+        return self.returncode
+
+
+class _JobHandle(PolledHandle):
     """A submitit job seen as a subprocess: its return code is the training's exit status."""
 
     def __init__(self, job: Any):
+        super().__init__()
         self.job = job
-        self.returncode: int | None = None
 
     def poll(self) -> int | None:
         if self.returncode is None and self.job.done():
@@ -92,14 +112,6 @@ class _JobHandle:
                 self.returncode = int(self.job.result())
             except Exception:  # noqa: BLE001 (the job itself failed: node, scheduler, pickling)
                 self.returncode = 1
-        return self.returncode
-
-    def wait(self, timeout: float | None = None) -> int:
-        end = None if timeout is None else time.time() + timeout
-        while self.poll() is None:
-            if end is not None and time.time() > end:
-                raise subprocess.TimeoutExpired(str(self.job.job_id), timeout)
-            time.sleep(0.5)
         return self.returncode
 
     def send_signal(self, sig: int) -> None:
@@ -142,3 +154,14 @@ class SlurmExecutor:
               run_dir: Path) -> _JobHandle:
         log.flush()
         return _JobHandle(self.executor.submit(TrainJob(start_cmd, resume_cmd, env, Path(log.name), run_dir)))
+
+
+def ray_executor(out: Path, scheduler: dict | None = None, **options: Any) -> Any:
+    """The Ray executor (mjxmimic.ops.sweep.ray_executor.RayExecutor), imported only when chosen."""
+    try:
+        import ray.tune  # noqa: F401
+    except ImportError:
+        raise UserError('--executor ray needs Ray Tune: pip install -e ".[ray]"') from None
+    from mjxmimic.ops.sweep.ray_executor import RayExecutor
+
+    return RayExecutor(out, scheduler=scheduler, **options)

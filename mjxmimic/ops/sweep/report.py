@@ -119,6 +119,9 @@ def write_tables(spec: Spec, state: dict) -> tuple[Path, Path]:
                  _fmt(r["nr"], "nr"), _fmt(r["fall_rate"], "fall"), _fmt(r["nr_at_samples"], "int"),
                  _fmt(r["samples"], "int"), _fmt(r["wall_s"], "s"), _fmt(r["samples_per_s"], "s")]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    if any(r["status"] == "pruned" for r in rows):
+        lines += ["", ("Pruned: stopped early by the Ray Tune scheduler of the spec's \"ray\" block (the training "
+                       "checkpointed); NR is its last evaluation before that. Later sweep calls leave it so.")]
     failures = [(r, state.get("runs", {}).get(r["run"], {})) for r in rows if r["status"].startswith("failed")]
     if failures:
         lines += ["", "## Failed runs", ""]

@@ -1,6 +1,6 @@
 """Running a sweep: plan (skip, resume or start each run from its folder), one `mjxmimic train`
 per run through an executor (mjxmimic.ops.sweep.executors: local subprocesses, one per GPU when
-several are visible, or Slurm jobs), the state file, signals."""
+several are visible, Slurm jobs or Ray Tune trials), the state file, signals."""
 
 from __future__ import annotations
 
@@ -25,11 +25,12 @@ from mjxmimic.runs import folder
 from mjxmimic.ops.sweep.executors import LocalExecutor
 from mjxmimic.ops.sweep.report import run_row, write_tables
 from mjxmimic.ops.sweep.spec import RunSpec, Spec, cli_value
-from mjxmimic.ops.sweep.state import State, now, is_finished
+from mjxmimic.ops.sweep.state import STATE_FILE, State, now, is_finished, read_json
 
 GPU_ENV_VAR = "MJXMIMIC_SWEEP_GPUS"
 LOG_TAIL_LINES = 12
 MIN_START_SECONDS = 60.0  # with a sweep time budget, do not start a run with less than this left
+PRUNED = "pruned by the scheduler"  # a Ray Tune scheduler stopped it early; later calls leave it so
 
 
 def _config_mismatch(recorded: config_lib.Config, expected: config_lib.Config) -> str | None:
@@ -51,7 +52,9 @@ class Plan:
 
 
 def plan(spec: Spec) -> list[Plan]:
-    """What each run needs, from its folder; a folder that holds another config is an error."""
+    """What each run needs, from its folder (and sweep.json for pruned runs); a folder that holds
+    another config is an error."""
+    records = (read_json(spec.out / STATE_FILE) or {}).get("runs", {})
     plans = []
     for run in spec.runs:
         run_dir = spec.run_dir(run)
@@ -70,6 +73,8 @@ def plan(spec: Spec) -> list[Plan]:
                             f"remove it or give the sweep another name or out folder")
         if is_finished(run_dir, run.config):
             plans.append(Plan(run, "skip", "finished"))
+        elif isinstance(records, dict) and records.get(run.name, {}).get("status") == "pruned":
+            plans.append(Plan(run, "skip", PRUNED))
         elif folder.has_checkpoint(run_dir):
             plans.append(Plan(run, "resume", "has a checkpoint"))
         else:
@@ -211,9 +216,10 @@ class Runner:
         for i, p in enumerate(plans, 1):
             rec = {"dir": p.run.name, "clip": p.run.clip, "seed": p.run.seed, "overrides": p.run.overrides}
             if p.action == "skip":
-                state.update(p.run.name, **rec, status="finished")
-                results[p.run.name] = "finished"
-                self.echo(f"[{i}/{total}] {p.run.name}: finished already, skipped")
+                status = "pruned" if p.why == PRUNED else "finished"
+                state.update(p.run.name, **rec, status=status)
+                results[p.run.name] = status
+                self.echo(f"[{i}/{total}] {p.run.name}: {status} already, skipped")
             else:
                 if state.record(p.run.name).get("status") in (None, "running"):
                     rec["status"] = "pending"
@@ -239,6 +245,8 @@ class Runner:
         finally:
             if previous_term is not None:
                 signal.signal(signal.SIGTERM, previous_term)
+            if hasattr(self.executor, "close"):
+                self.executor.close()  # waits for what the executor still runs (the Ray trials' ends)
             state.save()
             lock_file.close()
         for _, p in todo:
@@ -345,6 +353,8 @@ class Runner:
         tail = _log_tail(log_path, start_offset)
         if is_finished(run_dir, run.config):
             status = "finished"
+        elif getattr(proc, "pruned", False):
+            status = "pruned"  # a Ray Tune scheduler stopped it (its training checkpoints and exits)
         elif rc == 0:
             status = "stopped"  # run.max_seconds (or the sweep budget): resumed by the next sweep call
         elif rc == 130 or self._stop.is_set():

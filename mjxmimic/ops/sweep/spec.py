@@ -17,7 +17,10 @@ from mjxmimic.motion.clip import clip_label
 from mjxmimic.core.errors import UserError
 
 
-SPEC_FIELDS = ("name", "description", "preset", "clip", "clips", "grid", "runs", "seeds", "set", "out")
+SPEC_FIELDS = ("name", "description", "preset", "clip", "clips", "grid", "runs", "seeds", "set", "out", "ray")
+RAY_FIELDS = ("scheduler", "metric", "grace_period", "max_t", "reduction_factor")
+RAY_SCHEDULERS = ("asha",)
+RAY_METRICS = ("eval/nr", "eval/fall_rate")
 MAX_NAME = 100
 _SAFE = re.compile(r"[^A-Za-z0-9._=+-]+")
 
@@ -49,6 +52,7 @@ class Spec:
     out: Path
     runs: list[RunSpec]  # in execution order: seeds outermost, then clips, grid, runs entries
     raw: dict
+    ray: dict[str, Any] = dataclasses.field(default_factory=dict)  # the Ray executor's scheduler, checked
 
     @property
     def varying_keys(self) -> list[str]:
@@ -138,6 +142,37 @@ def _origin(message: str, common: dict, grid: dict, index: int, entry: dict) -> 
     if key in entry:
         return f"runs[{index}]: "
     return ""
+
+
+def _ray_block(raw: Any, runs: list[RunSpec]) -> dict[str, Any]:
+    """The spec's "ray" block (a Tune scheduler for --executor ray) with its defaults filled in;
+    time (grace_period, max_t) is counted in samples, the `step` of RUN/metrics.jsonl."""
+    if not isinstance(raw, dict):
+        raise _SpecError("ray: expected an object (scheduler, metric, grace_period, max_t, reduction_factor)")
+    unknown = [k for k in raw if k not in RAY_FIELDS]
+    if unknown:
+        raise _SpecError(f"ray: unknown field {unknown[0]!r} (fields: {', '.join(RAY_FIELDS)})")
+    if not raw:
+        return {}
+    if raw.get("scheduler") not in RAY_SCHEDULERS:
+        raise _SpecError(f"ray: scheduler {raw.get('scheduler')!r}: expected one of {', '.join(RAY_SCHEDULERS)}")
+    out = {"scheduler": raw["scheduler"], "metric": raw.get("metric", "eval/nr"),
+           "max_t": raw.get("max_t", max(r.config.run.total_samples for r in runs)),
+           "reduction_factor": raw.get("reduction_factor", 4)}
+    if out["metric"] not in RAY_METRICS:
+        raise _SpecError(f"ray: metric {out['metric']!r}: expected one of {', '.join(RAY_METRICS)}")
+    if "grace_period" not in raw:
+        raise _SpecError("ray: grace_period: required with a scheduler (samples a run trains before it may be stopped)")
+    out["grace_period"] = raw["grace_period"]
+    for key in ("grace_period", "max_t"):
+        if not isinstance(out[key], int) or isinstance(out[key], bool) or out[key] < 1:
+            raise _SpecError(f"ray: {key} {json.dumps(out[key])}: expected a positive number of samples")
+    if out["grace_period"] > out["max_t"]:
+        raise _SpecError(f"ray: grace_period {out['grace_period']} is more than max_t {out['max_t']}")
+    rf = out["reduction_factor"]
+    if not isinstance(rf, (int, float)) or isinstance(rf, bool) or not rf > 1:
+        raise _SpecError(f"ray: reduction_factor {json.dumps(rf)}: expected a number greater than 1")
+    return out
 
 
 def load_spec(path: str | Path, out: str | Path | None = None, check_clips: bool = True) -> Spec:
@@ -289,7 +324,7 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
 
     return Spec(path=path, name=name, description=description, preset=preset, clips=clips, seeds=seeds,
                 common=common, grid=grid, entries=entries if "runs" in raw else [], out=Path(out_dir),
-                runs=fixed, raw=raw)
+                runs=fixed, raw=raw, ray=_ray_block(raw.get("ray", {}), fixed))
 
 
 # ---- run folders ------------------------------------------------------------------------------
