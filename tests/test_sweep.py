@@ -4,6 +4,7 @@ one real 2-run sweep on the cpu preset (one run made to fail by a malformed clip
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import os
 import re
@@ -355,16 +356,19 @@ TINY = {"run.total_samples": 1024, "ppo.num_envs": 8, "ppo.unroll_length": 4, "p
 
 
 @pytest.mark.slow
-def test_cpu_sweep_failure_report_and_rerun(tmp_path, capsys):
+def test_cpu_sweep_failure_report_and_rerun(tmp_path, capsys, monkeypatch):
     """Two runs: slow_walk trains to its (tiny) budget; a malformed clip file passes the spec check
-    (it exists) and fails its run only. Re-running skips the finished run."""
+    (it exists) and fails its run only. Re-running skips the finished run. With wandb installed,
+    the runs also log to W&B (offline)."""
     broken = tmp_path / "broken.txt"
     broken.write_text('{"Loop": "wrap", "Frames": [[0.0333, 0.0, 0.9]]}')  # one short frame
     spec_path = write_spec(tmp_path / "tiny.json", preset="cpu", clips=["slow_walk", str(broken)], set=TINY,
                            out=str(tmp_path / "out"))
     out = tmp_path / "out"
     t0 = time.time()
-    rc = cli.main(["sweep", str(spec_path), "--gpus", "none"])
+    tracked = importlib.util.find_spec("wandb") is not None
+    monkeypatch.setenv("WANDB_MODE", "offline")
+    rc = cli.main(["sweep", str(spec_path), "--gpus", "none", *(["--wandb", "mjxmimic-test"] if tracked else [])])
     first = time.time() - t0
     printed = capsys.readouterr().out
     assert rc == 1, printed
@@ -374,6 +378,9 @@ def test_cpu_sweep_failure_report_and_rerun(tmp_path, capsys):
     final = json.loads((good / "eval.json").read_text())
     assert final["samples"] >= 1024 and 0.0 <= final["nr"] <= 1.0
     assert not (out / "broken-s0").exists()  # train writes nothing for a bad clip
+    if tracked:
+        run_id = json.loads((good / "wandb.json").read_text())["id"]
+        assert [r.name.endswith(run_id) for r in (good / "wandb").glob("offline-run-*")] == [True]
     state = json.loads((out / "sweep.json").read_text())
     assert state["runs"]["slow_walk-s0"]["status"] == "finished"
     assert state["runs"]["broken-s0"]["status"] == "failed" and state["runs"]["broken-s0"]["exit_code"] == 2

@@ -29,6 +29,7 @@ trainings checkpoint first).
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 from pathlib import Path
 
@@ -47,6 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
     parser.add_argument("--runs-per-gpu", type=int, default=1, metavar="N",
                         help="local: N runs share each GPU at a time, each with its share of the GPU's memory")
+    parser.add_argument("--wandb", metavar="PROJECT", default=None,
+                        help="every run also logs to this Weights & Biases project, grouped by the sweep's name "
+                             "(train --wandb; the wandb extra)")
     parser.add_argument("--executor", choices=("local", "slurm", "ray"), default="local",
                         help="where runs execute: subprocesses here (default), a Slurm job per run "
                              "through submitit (pip install 'mjxmimic[slurm]'), or a Ray Tune trial per run "
@@ -126,7 +130,16 @@ def run(args: argparse.Namespace) -> int:
     elif spec.ray:
         _echo("note: the spec's \"ray\" block applies to --executor ray only")
     _echo(f"sweep {spec.name}: {len(spec.runs)} runs in {spec.out}; {mode}")
-    runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo, executor=executor)
+    train_command = None
+    if args.wandb:
+        from mjxmimic.ops.sweep.runner import default_train_command
+        from mjxmimic.runs.wandb_log import check_available
+
+        check_available()
+        os.environ.setdefault("WANDB_RUN_GROUP", spec.name)  # W&B reads it in every run
+        train_command = [*default_train_command(), "--wandb", args.wandb]
+    runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo, executor=executor,
+                          train_command=train_command)
     try:
         results = runner.run()
     except KeyboardInterrupt:
