@@ -37,7 +37,7 @@ The manifest (JSON object):
                 environment settings from it (character and clip come from this file instead)
     arrays      every array key with its shape and dtype
 
-ONNX (optional, needs the `onnx` package): graph input "obs" [N, obs] float32, output "action"
+ONNX (mjxmimic.portable.policy_onnx; optional, needs the `onnx` package): graph input "obs" [N, obs] float32, output "action"
 [N, act] = tanh(loc), the normaliser and the MLP as ONNX nodes; the manifest, the character XML
 and the clips ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
 "mjxmimic/clip", and "mjxmimic/clips" for a dataset's others), so an .onnx file plays back as well.
@@ -331,7 +331,7 @@ def write_npz(pf: PolicyFile, path: Path) -> Path:
     return path
 
 
-def _parse_manifest(text: str, path: Path) -> dict[str, Any]:
+def parse_manifest(text: str, path: Path) -> dict[str, Any]:
     try:
         manifest = json.loads(text)
     except json.JSONDecodeError as err:
@@ -345,7 +345,7 @@ def _parse_manifest(text: str, path: Path) -> dict[str, Any]:
     return manifest
 
 
-def _params(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+def params_from_arrays(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     """The nested params back from their flat array names (the same names in npz and ONNX)."""
     policy: dict[str, dict[str, np.ndarray]] = {}
     for key, value in arrays.items():
@@ -367,112 +367,16 @@ def read_npz(path: Path) -> PolicyFile:
     for key in ("manifest", "character_xml", "normalizer/mean", "normalizer/std", "clip/qpos", "clip/durations"):
         if key not in data:
             raise UserError(f"{path}: not an mjxmimic policy file (no '{key}' array)")
-    manifest = _parse_manifest(str(data["manifest"]), path)
+    manifest = parse_manifest(str(data["manifest"]), path)
     others = []
     while f"clip/{len(others) + 1}/qpos" in data:
         i = len(others) + 1
         if f"clip/{i}/durations" not in data:
             raise UserError(f"{path}: not an mjxmimic policy file (no 'clip/{i}/durations' array)")
         others.append((data[f"clip/{i}/qpos"], data[f"clip/{i}/durations"]))
-    return PolicyFile(manifest=manifest, params=_params(data), character_xml=str(data["character_xml"]),
+    return PolicyFile(manifest=manifest, params=params_from_arrays(data), character_xml=str(data["character_xml"]),
                       clip_qpos=data["clip/qpos"], clip_durations=data["clip/durations"], other_clips=others,
                       path=path)
-
-
-# ----------------------------------------------------------------------------------- onnx files
-
-
-def _onnx():
-    try:
-        import onnx
-    except ImportError:
-        raise UserError("--format onnx needs the 'onnx' package (pip install onnx)") from None
-    return onnx
-
-
-def to_onnx(pf: PolicyFile):
-    """An onnx.ModelProto of the deterministic policy, with the manifest in its metadata."""
-    onnx = _onnx()
-    from onnx import TensorProto, helper, numpy_helper
-
-    policy = pf.policy()
-    obs, act = policy.observation_size, policy.action_size
-    inits = [numpy_helper.from_array(np.asarray(pf.params["normalizer"][k], np.float32), f"normalizer/{k}")
-             for k in ("mean", "std")]
-    nodes = [helper.make_node("Sub", ["obs", "normalizer/mean"], ["centred"]),
-             helper.make_node("Div", ["centred", "normalizer/std"], ["h_in"])]
-    h = "h_in"
-    n_layers = len(pf.params["policy"])
-    for i in range(n_layers):
-        name = f"hidden_{i}"
-        layer = pf.params["policy"][name]
-        inits += [numpy_helper.from_array(np.asarray(layer["kernel"], np.float32), f"policy/{name}/kernel"),
-                  numpy_helper.from_array(np.asarray(layer["bias"], np.float32), f"policy/{name}/bias")]
-        nodes += [helper.make_node("MatMul", [h, f"policy/{name}/kernel"], [f"{name}/mm"]),
-                  helper.make_node("Add", [f"{name}/mm", f"policy/{name}/bias"], [f"{name}/out"])]
-        h = f"{name}/out"
-        if i < n_layers - 1:
-            nodes.append(helper.make_node("Relu", [h], [f"{name}/relu"]))
-            h = f"{name}/relu"
-    inits += [numpy_helper.from_array(np.array([0], np.int64), "slice/start"),
-              numpy_helper.from_array(np.array([act], np.int64), "slice/end"),
-              numpy_helper.from_array(np.array([-1], np.int64), "slice/axis")]
-    nodes += [helper.make_node("Slice", [h, "slice/start", "slice/end", "slice/axis"], ["loc"]),
-              helper.make_node("Tanh", ["loc"], ["action"])]
-    graph = helper.make_graph(
-        nodes, "mjxmimic_policy",
-        [helper.make_tensor_value_info("obs", TensorProto.FLOAT, ["N", obs])],
-        [helper.make_tensor_value_info("action", TensorProto.FLOAT, ["N", act])],
-        initializer=inits)
-    model = helper.make_model(graph, producer_name="mjxmimic", producer_version=__version__,
-                              opset_imports=[helper.make_opsetid("", 17)])
-    model.ir_version = 8
-    def as_json(qpos: np.ndarray, durations: np.ndarray) -> dict[str, list]:
-        return {"qpos": np.asarray(qpos, np.float64).tolist(), "durations": np.asarray(durations, np.float64).tolist()}
-
-    meta = [("mjxmimic/manifest", json.dumps(pf.manifest)), ("mjxmimic/character_xml", pf.character_xml),
-            ("mjxmimic/clip", json.dumps(as_json(pf.clip_qpos, pf.clip_durations)))]
-    if pf.other_clips:
-        meta.append(("mjxmimic/clips", json.dumps([as_json(q, d) for q, d in pf.other_clips])))
-    for key, value in meta:
-        entry = model.metadata_props.add()
-        entry.key, entry.value = key, value
-    onnx.checker.check_model(model)
-    return model
-
-
-def write_onnx(pf: PolicyFile, path: Path) -> Path:
-    """Write atomically, like `write_npz`."""
-    onnx = _onnx()
-    model = to_onnx(pf)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    onnx.save(model, str(tmp))
-    tmp.replace(path)
-    return path
-
-
-def read_onnx(path: Path) -> PolicyFile:
-    """An ONNX policy file written by `write_onnx` (the manifest, XML and clip from its metadata)."""
-    onnx = _onnx()
-    from onnx import numpy_helper
-
-    path = Path(path)
-    try:
-        model = onnx.load(str(path))
-    except Exception as err:  # noqa: BLE001 (onnx raises several kinds)
-        raise UserError(f"{path}: cannot read as an ONNX policy file ({err})") from None
-    meta = {p.key: p.value for p in model.metadata_props}
-    for key in ("mjxmimic/manifest", "mjxmimic/character_xml", "mjxmimic/clip"):
-        if key not in meta:
-            raise UserError(f"{path}: not an mjxmimic ONNX policy (no '{key}' metadata)")
-    manifest = _parse_manifest(meta["mjxmimic/manifest"], path)
-    tensors = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
-    clips = [json.loads(meta["mjxmimic/clip"]), *json.loads(meta.get("mjxmimic/clips", "[]"))]
-    arrays = [(np.asarray(c["qpos"], np.float64), np.asarray(c["durations"], np.float64)) for c in clips]
-    return PolicyFile(manifest=manifest, params=_params(tensors), character_xml=meta["mjxmimic/character_xml"],
-                      clip_qpos=arrays[0][0], clip_durations=arrays[0][1], other_clips=arrays[1:], path=path)
 
 
 # -------------------------------------------------------------------------------- either format
@@ -483,12 +387,18 @@ def check_format(fmt: str) -> None:
     if fmt not in FORMATS:
         raise UserError(f"--format {fmt!r}: expected one of {', '.join(FORMATS)}")
     if fmt == "onnx":
-        _onnx()
+        from mjxmimic.portable import policy_onnx
+
+        policy_onnx.onnx_package()
 
 
 def write(pf: PolicyFile, path: Path, fmt: str = "npz") -> Path:
     check_format(fmt)
-    return write_onnx(pf, path) if fmt == "onnx" else write_npz(pf, path)
+    if fmt == "onnx":
+        from mjxmimic.portable import policy_onnx
+
+        return policy_onnx.write_onnx(pf, path)
+    return write_npz(pf, path)
 
 
 def read(path: str | Path) -> PolicyFile:
@@ -498,5 +408,7 @@ def read(path: str | Path) -> PolicyFile:
     if not path.is_file():
         raise UserError(f"{path}: policy file not found")
     if path.suffix == ".onnx":
-        return read_onnx(path)
+        from mjxmimic.portable import policy_onnx
+
+        return policy_onnx.read_onnx(path)
     return read_npz(path)
