@@ -15,7 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="config preset to measure (default: gpu)")
     parser.add_argument("--clip", default=None, help="clip NAME or PATH (default: the preset's clip)")
     parser.add_argument("--character", default=None, metavar="NAME|PATH",
-                        help="the simulated character: humanoid (default), dog3d, or an MJCF file")
+                        help="the simulated character: humanoid (default), dog3d, g1, or an MJCF file")
     parser.add_argument("--num-envs", type=int, nargs="+", default=None,
                         help="env counts (default: 4096 8192 16384 65536 for gpu, 32 128 for cpu)")
     parser.add_argument("--kinds", nargs="+", default=["physics_only", "env_step", "train_loop"],

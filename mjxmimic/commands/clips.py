@@ -36,7 +36,7 @@ def _add_clips_dir(parser: argparse.ArgumentParser) -> None:
                              "its clip prefix finds clips by short name (dog3d: trot -> dog3d_trot.txt)")
 
 
-def _character(args: argparse.Namespace):
+def _character(args: argparse.Namespace) -> Character:
     from mjxmimic.core.character import load_character, resolve_xml
 
     return load_character(resolve_xml(args.character))
@@ -65,7 +65,7 @@ def run_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def fits(path) -> str:
+def fits(path: Path) -> str:
     """The character a clip is for, by the file-name prefix of the package's characters
     (dog3d_* move the dog); clips without one, such as the project's own, the humanoid."""
     from mjxmimic.core.character import character_prefixes
@@ -159,14 +159,14 @@ def _run_dataset_info(args: argparse.Namespace, character) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from mjxmimic.motion.clip import ClipError, load_clip, resolve_clip
+    from mjxmimic.motion.clip import ClipError, load_clip_source
     from mjxmimic.motion.dataset import is_dataset
 
     character = _character(args)
     if is_dataset(args.clip):
         return _run_dataset_info(args, character)
     try:
-        clip = load_clip(resolve_clip(args.clip, args.clips_dir, character.clip_prefix), character)
+        clip = load_clip_source(args.clip, character, args.clips_dir)
     except ClipError as err:
         if args.json:
             print(json.dumps({"clip": args.clip, "valid": False, "error": str(err)}))
@@ -207,10 +207,10 @@ def run_render(args: argparse.Namespace) -> int:
     if args.fps <= 0:
         raise UserError(f"--fps {args.fps}: must be positive")
     setup_gl()
-    from mjxmimic.motion.clip import load_clip, resolve_clip
+    from mjxmimic.motion.clip import load_clip_source
 
     character = _character(args)
-    clip = load_clip(resolve_clip(args.clip, args.clips_dir, character.clip_prefix), character)
+    clip = load_clip_source(args.clip, character, args.clips_dir)
     out = Path(args.out) if args.out is not None else Path(f"{clip.name}.mp4")
     info = render_clip(character, clip, out, seconds=args.seconds, fps=args.fps, width=args.width,
                        height=args.height)
@@ -218,8 +218,6 @@ def run_render(args: argparse.Namespace) -> int:
           f"{out.stat().st_size / 1024:.0f} KiB (MUJOCO_GL={info['gl']})")
     return 0
 
-
-# ------------------------------------------------------------------------------------ dispatcher
 
 # ---------------------------------------------------------------------------------------- import
 
@@ -335,6 +333,9 @@ def run_retarget(args: argparse.Namespace) -> int:
           f"{report['ground_shift_m']:+.3f} m to the ground")
     _print_quality(report, "to the scaled source, about the root")
     return 0
+
+
+# ------------------------------------------------------------------------------------ dispatcher
 
 
 SUBCOMMANDS: dict[str, Subcommand] = {

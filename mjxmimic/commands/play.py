@@ -55,22 +55,32 @@ def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, cl
     return env.start_times(n, seed).tolist(), f"seeded draw (numpy, seed {seed})"
 
 
+class _RealTime:
+    """Holds a viewer loop to the control rate; after a slow step it goes on from now, not racing."""
+
+    def __init__(self, dt: float):
+        self.dt, self.t = dt, time.perf_counter()
+
+    def wait(self) -> None:
+        self.t += self.dt
+        ahead = self.t - time.perf_counter()
+        if ahead > 0:
+            time.sleep(ahead)
+        else:
+            self.t = time.perf_counter()
+
+
 def _viewer_loop(env, policy, starts):
     import mujoco.viewer
 
     from mjxmimic.portable.playback import evaluate
 
     with mujoco.viewer.launch_passive(env.model, env.data) as viewer:
-        clock = {"t": time.perf_counter()}
+        clock = _RealTime(env.control_dt)
 
         def on_step(e, s):
             viewer.sync()
-            clock["t"] += e.control_dt
-            wait = clock["t"] - time.perf_counter()
-            if wait > 0:
-                time.sleep(wait)
-            else:
-                clock["t"] = time.perf_counter()
+            clock.wait()
             return viewer.is_running()
 
         return evaluate(env, policy, starts, on_step=on_step)
@@ -83,6 +93,7 @@ def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
 
     ev = (pf.manifest.get("training", {}).get("eval") or {}).get("clips") or {}
     n = DEFAULT_EPISODES if args.episodes is None else args.episodes
+    policy = pf.policy()
     rows = {}
     for index, clip in enumerate(env.clips):
         if only is not None and index != only:
@@ -93,7 +104,7 @@ def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
         else:
             seed = 0 if args.seed is None else args.seed
             starts, label = env.start_times(n, seed, index).tolist(), f"seeded draw (numpy, seed {seed})"
-        result = evaluate(env, pf.policy(), starts, clip=index)
+        result = evaluate(env, policy, starts, clip=index)
         mjx_nr = (ev.get(clip.name) or {}).get("nr")
         rows[clip.name] = {"nr": result["nr"], "nr_paper": result["nr_paper"], "fall_rate": result["fall_rate"],
                            "survival_s": result["survival_s"], "episodes": result["episodes"], "starts": label,
@@ -126,7 +137,7 @@ def _viewer_skills(env, policy) -> int:
             pending.append(skill)
 
     with mujoco.viewer.launch_passive(env.model, env.data, key_callback=on_key) as viewer:
-        obs, clock = env.reset_at(0.0), time.perf_counter()
+        obs, clock = env.reset_at(0.0), _RealTime(env.control_dt)
         while viewer.is_running():
             if pending:
                 obs = env.switch(pending.pop())
@@ -134,8 +145,7 @@ def _viewer_skills(env, policy) -> int:
             s = env.step(policy(obs))
             obs = env.reset_at(0.0, clip=env.motion.clip) if s.failed else s.obs
             viewer.sync()
-            clock += env.control_dt
-            time.sleep(max(0.0, clock - time.perf_counter()))
+            clock.wait()
     return 0
 
 
@@ -188,9 +198,10 @@ def run(args: argparse.Namespace) -> int:
     pf = load_policy_file(args.policy)
     character = pf.character()
     clips = pf.clips()
-    if args.clip is not None and args.clip in [c.name for c in clips]:
+    names = [c.name for c in clips]
+    if args.clip is not None and args.clip in names:
         env = CpuEnv(pf.config(), character, clips, pf.weights())
-        return _play_clips(args, pf, env, [c.name for c in clips].index(args.clip))
+        return _play_clips(args, pf, env, names.index(args.clip))
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source
 

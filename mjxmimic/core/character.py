@@ -127,7 +127,7 @@ def character_names() -> list[str]:
 
 def character_prefixes() -> dict[str, str]:
     """Each shipped character's clip file-name prefix, by name (those that have one)."""
-    out = {g1_character.NAME: f"{g1_character.NAME}_"}
+    out = {g1_character.NAME: g1_character.CLIP_PREFIX}
     for path in XML_DIR.glob("*.xml"):
         model = mujoco.MjModel.from_xml_path(str(path))
         if _has_text(model, "clip_prefix"):

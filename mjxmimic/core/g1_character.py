@@ -25,6 +25,7 @@ import mujoco
 from mjxmimic.core.errors import UserError
 
 NAME = "g1"
+CLIP_PREFIX = f"{NAME}_"
 ENV_VAR = "MJXMIMIC_G1"  # g1.xml, or the folder that holds it
 SHARED_PATH = Path("shared") / "robots" / "unitree_g1" / "g1.xml"
 
@@ -51,7 +52,7 @@ ROOT_WEIGHT = 1.0
 
 
 def _joint_table() -> dict[str, tuple[str, float]]:
-    """Every hinge in the model's order (the clip order): name -> (motor, weight)."""
+    """Every hinge by name -> (motor, pose-error weight); the clip order is the model's."""
     table = {f"left_{k}_joint": v for k, v in LEG.items()}
     table.update({f"right_{k}_joint": v for k, v in LEG.items()})
     table.update({f"{k}_joint": v for k, v in WAIST.items()})
@@ -123,7 +124,7 @@ def build_xml(source: Path) -> str:
         _numeric(spec, f"joint/{joint.name}", [kp, effort, weight])
     _numeric(spec, "joint/root", [0.0, 0.0, ROOT_WEIGHT])
     _text(spec, "clip_joint_order", " ".join(names))
-    _text(spec, "clip_prefix", f"{NAME}_")
+    _text(spec, "clip_prefix", CLIP_PREFIX)
     _text(spec, "end_effectors", END_EFFECTORS)
     for set_name, members in BODY_SETS.items():
         _text(spec, set_name, members)

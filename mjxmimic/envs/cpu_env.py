@@ -1,6 +1,6 @@
 """The control step (`mjxmimic.envs.step`) on MuJoCo's C simulator with numpy: one character,
-its clip (or a dataset's clips, one of which drives the episode: the skill), one episode at a time. No JAX on this path, so an exported policy plays wherever numpy
-and mujoco do (the viewer, rendering, sim-to-sim NR).
+its clip (or a dataset's clips, one of which drives the episode: the skill), one episode at a
+time. No JAX on this path, so an exported policy plays wherever numpy and mujoco do (the viewer, rendering, sim-to-sim NR).
 
 Time is kept in float32 as on MJX, so that both sample the same reference. With a converged
 contact solve one control step agrees with MJX to < 1e-3 in every observation entry, on the

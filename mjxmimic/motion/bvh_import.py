@@ -253,7 +253,7 @@ def _report(character: Character, mapping: Mapping, clip: Clip, bvh: Bvh, src_po
     """End-effector error against the scaled source (both relative to the root anchor), foot skating,
     penetration."""
     model = character.model
-    positions = quality.body_positions(character, clip.qpos)
+    positions, _ = quality.body_poses(character, clip.qpos)
     times = np.arange(clip.num_frames) / clip.fps
     anchor_src = np.mean([src_pos[:, joint_of[b]] for b in mapping.root_anchor], axis=0)
     anchor_tgt = np.mean([positions[:, model.body(b).id] for b in mapping.root_anchor], axis=0)

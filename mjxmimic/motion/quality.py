@@ -13,16 +13,16 @@ CONTACT_HEIGHT = 0.01  # m: a foot this close to the ground is taken to be plant
 BELOW_GROUND = 0.005  # m: a frame whose lowest point is lower than this counts as below ground
 
 
-def body_positions(character: Character, qpos: np.ndarray) -> np.ndarray:
-    """(F, nbody, 3) world positions of every body at each pose."""
+def body_poses(character: Character, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(F, nbody, 3) world positions and (F, nbody, 4) orientations of every body at each pose."""
     model = character.model
     data = mujoco.MjData(model)
-    out = np.zeros((len(qpos), model.nbody, 3))
+    xpos, xquat = np.zeros((len(qpos), model.nbody, 3)), np.zeros((len(qpos), model.nbody, 4))
     for f, q in enumerate(qpos):
         data.qpos[:] = q
         mujoco.mj_kinematics(model, data)
-        out[f] = data.xpos
-    return out
+        xpos[f], xquat[f] = data.xpos, data.xquat
+    return xpos, xquat
 
 
 def put_on_ground(character: Character, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -39,7 +39,7 @@ def put_on_ground(character: Character, qpos: np.ndarray) -> tuple[np.ndarray, n
 def foot_skating(character: Character, qpos: np.ndarray, fps: float) -> float | None:
     """Mean horizontal speed (m/s) of the feet while planted (both frames near the ground); None if
     the character names no feet or they never touch down."""
-    positions = body_positions(character, qpos)
+    positions, _ = body_poses(character, qpos)
     speeds = []
     for b in character.body_sets.get("feet", ()):
         height = lowest_points(character, qpos, (b,))

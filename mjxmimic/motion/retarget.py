@@ -174,22 +174,12 @@ class _Goals:
     root_qpos: np.ndarray  # (F, 7) a first guess for the root
 
 
-def _source_poses(source: Character, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    model, data = source.model, mujoco.MjData(source.model)
-    xpos, xquat = np.zeros((len(qpos), model.nbody, 3)), np.zeros((len(qpos), model.nbody, 4))
-    for f, q in enumerate(qpos):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
-        xpos[f], xquat[f] = data.xpos, data.xquat
-    return xpos, xquat
-
-
 def _goals(clip: Clip, source: Character, target: Character, mapping: RetargetMap, scale: float,
            iterations: int) -> _Goals:
     where = str(mapping.path)
     src_rest, tgt_rest = _rest(source), _rest(target)
     # row 0: the source at rest, whose goals pose the target in the source's rest posture
-    src_pos, src_rot = _source_poses(source, np.concatenate([source.model.qpos0[None], clip.qpos]))
+    src_pos, src_rot = quality.body_poses(source, np.concatenate([source.model.qpos0[None], clip.qpos]))
     turn = {}  # source body -> (F + 1, 4) its rotation from rest, in the world frame
 
     def from_rest(sb: int) -> np.ndarray:
@@ -266,7 +256,7 @@ def _solve(target: Character, goals: _Goals, iterations: int, damping: float = 1
 def _end_effector_errors(target: Character, qpos: np.ndarray, goals: _Goals) -> dict[str, float]:
     """Mean distance (m) of each position-matched end effector to its goal, both relative to the
     root (the root's own goal where it has one)."""
-    positions = quality.body_positions(target, qpos)
+    positions, _ = quality.body_poses(target, qpos)
     roots = list(goals.pos_bodies)
     root_goal = goals.pos[:, roots.index(1)] if 1 in roots else goals.root_qpos[:, 0:3]
     errors = {}

@@ -37,9 +37,9 @@ The manifest (JSON object):
                 environment settings from it (character and clip come from this file instead)
     arrays      every array key with its shape and dtype
 
-ONNX (mjxmimic.portable.policy_onnx; optional, needs the `onnx` package): graph input "obs" [N, obs] float32, output "action"
-[N, act] = tanh(loc), the normaliser and the MLP as ONNX nodes; the manifest, the character XML
-and the clips ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
+ONNX (mjxmimic.portable.policy_onnx; optional, needs the `onnx` package): graph input "obs"
+[N, obs] float32, output "action" [N, act] = tanh(loc), the normaliser and the MLP as ONNX nodes;
+the manifest, the character XML and the clips ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
 "mjxmimic/clip", and "mjxmimic/clips" for a dataset's others), so an .onnx file plays back as well.
 
 No JAX here (numpy and mujoco; onnx for .onnx files), so that `mjxmimic play` and `render` run
@@ -200,7 +200,7 @@ def _joints(character: Character) -> list[dict[str, Any]]:
 def _clip_entry(clip: Any) -> dict[str, Any]:
     return {"name": clip.name, "source": str(clip.path) if getattr(clip, "path", None) is not None else None,
             "loop": bool(clip.loop), "frames": int(clip.qpos.shape[0]),
-            "duration_s": float(np.sum(np.asarray(clip.durations)[:-1]))}
+            "duration_s": clip.duration}
 
 
 def build_manifest(config: config_lib.Config, character: Character, character_xml: str, clip: Any,

@@ -266,11 +266,10 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow.
     `skill_sequence` ("walk:4,run:4", a dataset policy) switches skills as `play` does, until a
     fall or the sequence's end."""
-    from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.core.kinematics import ROOT_BODY
-    from mjxmimic.task import push_protocol
-
+    from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import skills
+    from mjxmimic.task import push_protocol
 
     character = pf.character()
     switches = {}
@@ -278,8 +277,8 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         env = CpuEnv(pf.config(), character, pf.clips(), pf.weights())
         skills.check_selectable(env)
         sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
-        switches = dict(skills.switch_steps(env, sequence))
-        total = sum(max(1, round(t / env.control_dt)) for _, t in sequence)
+        switches = skills.switch_steps(env, sequence)
+        total = sum(skills.segment_steps(env, sequence))
         limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))
     else:
         env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())

@@ -49,13 +49,15 @@ def skill_for_key(keycode: int, count: int) -> int | None:
     return index if 0 <= index < min(count, 9) else None
 
 
-def switch_steps(env: CpuEnv, sequence: Sequence) -> list[tuple[int, int]]:
-    """(control step at which the segment starts, clip number) for each segment."""
-    starts, k = [], 0
-    for clip, seconds in sequence:
-        starts.append((k, clip))
-        k += max(1, round(seconds / env.control_dt))
-    return starts
+def segment_steps(env: CpuEnv, sequence: Sequence) -> list[int]:
+    """Control steps of each segment (at least one)."""
+    return [max(1, round(seconds / env.control_dt)) for _, seconds in sequence]
+
+
+def switch_steps(env: CpuEnv, sequence: Sequence) -> dict[int, int]:
+    """{control step at which a segment starts: its clip number}."""
+    starts = np.cumsum([0, *segment_steps(env, sequence)[:-1]])
+    return {int(k): clip for k, (clip, _) in zip(starts, sequence, strict=True)}
 
 
 def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], sequence: Sequence,
@@ -66,10 +68,9 @@ def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], seque
     check_selectable(env)
     obs = env.reset_at(0.0, clip=sequence[0][0])
     segments, fell = [], False
-    for index, (clip, seconds) in enumerate(sequence):
+    for index, ((clip, seconds), steps) in enumerate(zip(sequence, segment_steps(env, sequence), strict=True)):
         if index > 0:
             obs = env.switch(clip)
-        steps = max(1, round(seconds / env.control_dt))
         rewards, pose = [], []
         for _ in range(steps):
             s = env.step(policy(obs))

@@ -41,7 +41,7 @@ def _training_eval(run_dir: Path, config: config_lib.Config, clips: list[Any], c
         return None
     episodes = int(ev.get("episodes", config.run.eval_episodes))
     seed = int(ev.get("seed", config.run.seed + 1))
-    duration = float(np.sum(np.asarray(clip.durations)[:-1]))
+    duration = clip.duration
     starts = ev.get("start_times")
     if starts is None:
         starts = mjx_eval_start_times(seed, episodes, duration).tolist()
@@ -53,8 +53,7 @@ def _training_eval(run_dir: Path, config: config_lib.Config, clips: list[Any], c
     }
     if len(clips) > 1:
         out["clips"] = {c.name: {"nr": ev.get(f"clip/{c.name}/nr"), "nr_paper": ev.get(f"clip/{c.name}/nr_paper"),
-                                 "start_times": mjx_eval_start_times(seed, episodes, float(np.sum(c.durations[:-1]))
-                                                                     ).tolist()}
+                                 "start_times": mjx_eval_start_times(seed, episodes, c.duration).tolist()}
                         for c in clips}
     of = out["checkpoint"]
     if of is not None and int(of) != checkpoint:
