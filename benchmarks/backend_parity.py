@@ -27,7 +27,7 @@ from mjxmimic.ops.bench import environment_info  # noqa: E402
 
 
 def compare(config: config_lib.Config, envs: int, steps: int, action_scale: float = 0.2, seed: int = 0) -> dict:
-    character, clips = load_env_inputs(config)
+    character, clips, _ = load_env_inputs(config)
     out: dict = {"envs": envs, "steps": steps, "action_scale": action_scale, "per_step": []}
     rollouts = {}
     for backend in ("jax", "warp"):

@@ -60,7 +60,7 @@ def main() -> int:
     rows = []
     for clip in args.clips:
         base = make_config("gpu", {"clip.name": clip, "env.action_mode": "residual"})
-        character, clips = load_env_inputs(base)
+        character, clips, _ = load_env_inputs(base)
         for hz in args.rates:
             for iters, ls in args.solvers:
                 env = ImitationEnv(bench.with_settings(base, hz, iters, ls), character, clips)
@@ -91,7 +91,7 @@ def policy_rows(args: argparse.Namespace) -> list[dict]:
     rows = []
     for run_dir in args.runs:
         config = folder.load_config(run_dir)
-        character, clips = load_env_inputs(config)
+        character, clips, _ = load_env_inputs(config)
         for hz in args.rates:
             for iters, ls in args.solvers:
                 env = ImitationEnv(bench.with_settings(config, hz, iters, ls), character, clips)

@@ -212,7 +212,7 @@ def test_kinematics_and_observation_match_mujoco_c(env):
         qpos, qvel = random_state(env, rng)
         c = c_kin(env.model, qpos, qvel)
         j = fk(jnp.asarray(qpos, jnp.float32), jnp.asarray(qvel, jnp.float32))
-        for name in ("xipos", "xmat", "cvel", "com"):
+        for name in ("xipos", "xmat", "angvel", "linvel", "com"):
             np.testing.assert_allclose(np.asarray(getattr(j, name)), getattr(c, name), atol=2e-4, err_msg=name)
         phase = rng.uniform()
         np.testing.assert_allclose(np.asarray(observation(j, jnp.asarray(phase), jnp)),

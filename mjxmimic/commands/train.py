@@ -137,7 +137,5 @@ def run(args: argparse.Namespace) -> int:
         line += "; " + in_words(final, config)
     elif outcome.reason == "max_seconds":
         line += f"; continue with: mjxmimic train --resume {run_dir}"
-    if s.get("recompiled"):
-        print("mjxmimic train: warning: the train step recompiled after the first iteration", file=sys.stderr)
     print(line)
     return outcome.exit_code

@@ -1,8 +1,6 @@
-"""The kinematic quantities that observation and reward read, taken from MuJoCo data.
-
-`mjx.Data` and `mujoco.MjData` name these fields alike, so one constructor serves the training
-environment and CPU playback; both compute them with MuJoCo's own kinematics (mj_kinematics,
-mj_comPos, mj_comVel), for the simulated body and the reference pose alike.
+"""The kinematic quantities that observation and reward read, for the simulated body and the
+reference pose alike: computed by MuJoCo C (CPU playback, `kin_from_data`) or by the array code
+of mjxmimic.core.forward_kinematics (the MJX env), which agree to float precision.
 """
 
 from __future__ import annotations
@@ -15,7 +13,8 @@ class Kin(NamedTuple):
     qvel: Any  # (nv,)
     xipos: Any  # (nbody, 3) body centres of mass, world
     xmat: Any  # (nbody, 3, 3) body frame orientations, world
-    cvel: Any  # (nbody, 6) [angular; linear at subtree_com[root]] world-oriented velocities
+    angvel: Any  # (nbody, 3) angular velocities, world frame
+    linvel: Any  # (nbody, 3) linear velocities of the body centres of mass, world frame
     com: Any  # (3,) whole-character centre of mass (subtree_com of the root body)
 
 
@@ -23,25 +22,24 @@ ROOT_BODY = 1
 
 
 def kin_from_data(d: Any, xp: Any) -> Kin:
-    """Read a Kin from mjx.Data or mujoco.MjData whose kinematics and com velocities are current."""
+    """Read a Kin from MuJoCo data whose kinematics and com velocities are current (mj_kinematics,
+    mj_comPos, mj_comVel), copied out of it: MuJoCo's cvel holds [angular; linear at the root's subtree com]."""
+    xipos = xp.array(d.xipos)
+    com = xp.array(d.subtree_com)[ROOT_BODY]
+    cvel = xp.array(d.cvel)
     return Kin(
-        qpos=xp.asarray(d.qpos),
-        qvel=xp.asarray(d.qvel),
-        xipos=xp.asarray(d.xipos),
-        xmat=xp.reshape(xp.asarray(d.xmat), (-1, 3, 3)),
-        cvel=xp.asarray(d.cvel),
-        com=xp.asarray(d.subtree_com)[ROOT_BODY],
+        qpos=xp.array(d.qpos),
+        qvel=xp.array(d.qvel),
+        xipos=xipos,
+        xmat=xp.reshape(xp.array(d.xmat), (-1, 3, 3)),
+        angvel=cvel[:, :3],
+        linvel=cvel[:, 3:] + xp.cross(cvel[:, :3], xipos - com),
+        com=com,
     )
 
 
-def body_linvel(k: Kin, xp: Any) -> Any:
-    """Linear velocity of each body's centre of mass (nbody, 3), world frame."""
-    ang, lin = k.cvel[:, :3], k.cvel[:, 3:]
-    return lin + xp.cross(ang, k.xipos - k.com)
-
-
 def com_velocity(k: Kin, body_mass: Any, xp: Any) -> Any:
-    return xp.sum(body_mass[:, None] * body_linvel(k, xp), axis=0) / xp.sum(body_mass)
+    return xp.sum(body_mass[:, None] * k.linvel, axis=0) / xp.sum(body_mass)
 
 
 def root_yaw(k: Kin, xp: Any) -> Any:

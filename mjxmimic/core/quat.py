@@ -43,6 +43,17 @@ def rotate(q: Any, v: Any, xp: Any = np) -> Any:
     return v + w * t + xp.cross(u, t)
 
 
+def to_matrix(q: Any, xp: Any = np) -> Any:
+    """Rotation matrix (..., 3, 3) of unit quaternion(s)."""
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    rows = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ]
+    return xp.stack([xp.stack(r, axis=-1) for r in rows], axis=-2)
+
+
 def to_rotvec(q: Any, xp: Any = np) -> Any:
     """Axis x angle (the exponential-map log) of a unit quaternion, angle in [0, pi]."""
     q = q * xp.where(q[..., :1] < 0, -1.0, 1.0)  # the short way round

@@ -194,6 +194,7 @@ class Trainer:
     _batched_env: _BatchedEnv = dataclasses.field(repr=False, default=None)
     _state_sharding: Any = dataclasses.field(repr=False, default=None)
     _reset: Callable = dataclasses.field(repr=False, default=None)
+    _abstract_state: Any = dataclasses.field(repr=False, default=None)
 
     # ---- shardings -------------------------------------------------------------------------
     @property
@@ -249,6 +250,11 @@ class Trainer:
         tree = jax.tree_util.tree_map(lambda _: rep, ts)
         per_env = lambda x: bat if getattr(x, "ndim", 0) >= 1 and x.shape[0] == n else rep
         return tree.replace(env_state=jax.tree_util.tree_map(per_env, ts.env_state))
+
+    def compile_train_step(self) -> Callable[[TrainState], tuple[TrainState, dict]]:
+        """`train_step` compiled ahead of time from the state's shapes alone, so that it can
+        compile in a thread while the env states are drawn and the evaluator compiles."""
+        return self.train_step.lower(self._abstract_state).compile()
 
     # ---- policy ----------------------------------------------------------------------------
     def make_policy(self, params: dict, deterministic: bool = True) -> Callable:
@@ -397,6 +403,9 @@ def make_trainer(env, config: Config) -> Trainer:
 
     abstract = jax.eval_shape(abstract_init, jax.random.PRNGKey(0))
     trainer._state_sharding = trainer.state_sharding(abstract)
+    trainer._abstract_state = jax.tree_util.tree_map(
+        lambda x, sharding: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), abstract,
+        trainer._state_sharding)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)
     trainer.train_step = jax.jit(trainer._train_step, donate_argnums=0,
                                  out_shardings=(trainer._state_sharding, trainer.replicated))

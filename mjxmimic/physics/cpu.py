@@ -8,7 +8,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from mjxmimic.core.kinematics import Kin
+from mjxmimic.core.kinematics import Kin, kin_from_data
 from mjxmimic.core.layout import Layout
 from mjxmimic.core.scene import Scene
 from mjxmimic.physics.backend import Substeps
@@ -71,6 +71,4 @@ class CpuPhysics:
         mujoco.mj_kinematics(self.model, d)
         mujoco.mj_comPos(self.model, d)
         mujoco.mj_comVel(self.model, d)
-        return Kin(qpos=np.array(d.qpos), qvel=np.array(d.qvel), xipos=np.array(d.xipos),
-                   xmat=np.array(d.xmat).reshape(-1, 3, 3), cvel=np.array(d.cvel),
-                   com=np.array(d.subtree_com[1]))
+        return kin_from_data(d, np)

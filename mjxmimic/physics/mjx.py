@@ -3,8 +3,8 @@
 Written for one world and vmapped by the env. Under warp, contacts live in one pool shared by all
 worlds, so the data is made for `max_worlds` worlds at once (`naconmax`); resets merge with
 `Data.where`, which knows which warp fields are per world. Kinematics for observations and
-rewards always run on an impl='jax' copy of the model: they are pure JAX on any device, and
-warp has no `com_vel`.
+rewards are mjxmimic.core.forward_kinematics in jax.numpy on any backend: warp has no `com_vel`,
+and MJX's general kinematics compiles several times slower.
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ import jax.numpy as jnp
 from mujoco import mjx
 
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.kinematics import Kin, kin_from_data
+from mjxmimic.core import forward_kinematics
+from mjxmimic.core.kinematics import Kin
 from mjxmimic.core.layout import Layout
 from mjxmimic.core.scene import Scene
 from mjxmimic.physics.backend import Substeps
@@ -98,9 +99,7 @@ class MjxPhysics:
         else:
             self.sys = mjx.put_model(scene.model, impl="jax")
             self._data0 = mjx.make_data(self.sys)
-        # Kinematics of any pose on the pure-JAX model (see the module docstring).
-        self._kin_sys = self.sys if impl == "jax" else mjx.put_model(scene.model, impl="jax")
-        self._kin_data0 = self._data0 if impl == "jax" else mjx.make_data(self._kin_sys)
+        self._tree = forward_kinematics.read_tree(scene.model)
 
     def init(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
         return self._data0.replace(qpos=qpos, qvel=qvel)
@@ -126,10 +125,6 @@ class MjxPhysics:
         return Substeps(state=data, contacts=jnp.any(contacts, axis=0), diverged=jnp.zeros((), bool))
 
     def kinematics(self, qpos: jax.Array, qvel: jax.Array) -> Kin:
-        d = self._kin_data0.replace(qpos=qpos, qvel=qvel)
-        d = mjx.kinematics(self._kin_sys, d)
-        d = mjx.com_pos(self._kin_sys, d)
-        d = mjx.com_vel(self._kin_sys, d)
-        return kin_from_data(d, jnp)
+        return forward_kinematics.kinematics(self._tree, qpos, qvel, jnp)
 
 

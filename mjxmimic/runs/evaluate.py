@@ -137,14 +137,29 @@ class Evaluator:
         self._run = jax.jit(
             lambda params, key, deterministic, clip: _rollout(env, make_policy(params, deterministic), key,
                                                               self.num_episodes, clip), static_argnums=2)
+        self._compiled: dict[bool, Callable] = {}
+
+    def compile(self, params: Any) -> None:
+        """Compile ahead of time for parameters shaped like `params` (arrays or their shapes), so
+        that the first evaluation does not wait for it (the training loop runs this in a thread)."""
+        key, clip = jax.random.PRNGKey(0), jnp.zeros((), jnp.int32)
+        for deterministic in (True, False) if self.stochastic else (True,):
+            self._compiled[deterministic] = self._run.lower(params, key, deterministic, clip).compile()
+
+    def _episodes(self, params: Any, key: jax.Array, deterministic: bool, clip: jax.Array) -> dict:
+        compiled = self._compiled.get(deterministic)
+        if compiled is not None:
+            return compiled(params, key, clip)
+        return self._run(params, key, deterministic, clip)
 
     def __call__(self, params: Any, seed: int = 0, *, samples: int | None = None,
                  train_seconds: float | None = None) -> dict:
         start = time.time()
         key = jax.random.PRNGKey(seed)
         task, dt = task_of(self.env), self.env.control_dt
-        result = per_clip(self.env, lambda c: summarize(jax.device_get(self._run(params, key, True, c)), dt, task))
+        result = per_clip(self.env, lambda c: summarize(jax.device_get(self._episodes(params, key, True, c)), dt, task))
         if self.stochastic:
-            noisy = per_clip(self.env, lambda c: summarize(jax.device_get(self._run(params, key, False, c)), dt, task))
+            noisy = per_clip(self.env, lambda c: summarize(jax.device_get(self._episodes(params, key, False, c)), dt,
+                                                           task))
             result.update({f"stochastic_{k}": noisy[k] for k in self.STOCHASTIC_FIELDS})
         return _finish(result, time.time() - start, samples, train_seconds)

@@ -22,6 +22,7 @@ import shutil
 import signal
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, Callable
 
@@ -129,6 +130,11 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         env = env_factory(config)
     trainer = make_trainer(env, config)
     run_cfg = config.run
+    evaluator = Evaluator(env, config, trainer.make_policy)
+    # The train step compiles in a thread while the env states are drawn; the evaluator compiles
+    # in another while training starts (compilation is most of a run's first minute).
+    compiling = ThreadPoolExecutor(max_workers=2, thread_name_prefix="mjxmimic-compile")
+    step_compiled = compiling.submit(trainer.compile_train_step)
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -158,7 +164,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     last_ckpt_steps = env_steps
     spi = trainer.samples_per_iteration
 
-    evaluator = Evaluator(env, config, trainer.make_policy)
+    eval_compiled = compiling.submit(evaluator.compile, export_params(ts))
     eval_seed = run_cfg.seed + 1
 
     def elapsed() -> float:
@@ -170,8 +176,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
 
         tracker = WandbRun(run_dir, config)
     log = MetricsLog(run_dir, mirror=tracker)
-    state = {"last_eval": None, "steady_samples": 0, "steady_seconds": 0.0, "cache_after_first": None,
-             "iter_seconds": 0.0, "eval_seconds": 0.0}
+    state = {"last_eval": None, "steady_samples": 0, "steady_seconds": 0.0, "iter_seconds": 0.0,
+             "eval_seconds": 0.0}
 
     best = folder.read_best(run_dir) if resume else None
     best_metric = "nr_paper" if config.reward.kind == "paper" else "nr"
@@ -192,6 +198,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     def run_eval() -> dict:
         nonlocal last_eval_steps, time_to_skill
         t = time.time()
+        eval_compiled.result()
         result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
         improved = keep_if_best(result)
         state["eval_seconds"] = time.time() - t
@@ -222,8 +229,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                "policy_hidden": list(config.ppo.policy_hidden), **_device_info()}
         if state["steady_seconds"] > 0:
             out["samples_per_s_steady"] = state["steady_samples"] / state["steady_seconds"]
-        if state["cache_after_first"] is not None:
-            out["recompiled"] = trainer.train_step._cache_size() != state["cache_after_first"]
         if time_to_skill is not None:
             out["time_to_skill_s"] = time_to_skill
         return out
@@ -240,6 +245,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         if not resume and run_cfg.eval_at_start and env_steps == 0:
             result = run_eval()
             bar.note(f"untrained policy: NR {result['nr']:.3f}")
+        train_step = step_compiled.result()  # compiled once: it cannot recompile
         with stop, bar:
             while env_steps < run_cfg.total_samples:
                 if stop.requested:
@@ -249,7 +255,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                     reason = "max_seconds"
                     break
                 t = time.time()
-                ts, metrics = trainer.train_step(ts)
+                ts, metrics = train_step(ts)
                 metrics = jax.device_get(metrics)
                 dt = time.time() - t
                 iterations += 1
@@ -257,7 +263,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                 state["iter_seconds"] = dt
                 if first_this_call:
                     first_this_call = False
-                    state["cache_after_first"] = trainer.train_step._cache_size()
                     bar.note(f"first iteration done in {dt:.0f} s (compilation included); "
                              f"{elapsed() - prior_elapsed:.0f} s since the start")
                 else:
@@ -314,6 +319,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                                                                       if isinstance(v, (int, float))}})
     finally:
         log.close()
+        compiling.shutdown(cancel_futures=True)
     if reason == "non_finite":
         raise UserError(f"{run_dir}: training stopped: {non_finite} (the learning rate or the "
                         f"physics diverged); the last good checkpoint, at {last_ckpt_steps:,} samples, is kept")

@@ -14,7 +14,7 @@ from typing import Any, Callable
 
 from mjxmimic.core import quat
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.kinematics import ROOT_BODY, Kin, body_linvel, root_yaw
+from mjxmimic.core.kinematics import ROOT_BODY, Kin, root_yaw
 
 DEFAULT = "phase,root_height,bodies"
 
@@ -33,8 +33,8 @@ def bodies(k: Kin, clip_phase: Any, xp: Any) -> Any:
     pos = quat.rotate_yaw(k.xipos[rest] - k.xipos[ROOT_BODY], yaw, xp)
     forward = quat.rotate_yaw(k.xmat[rest, :, 0], yaw, xp)
     up = quat.rotate_yaw(k.xmat[rest, :, 2], yaw, xp)
-    lin = quat.rotate_yaw(body_linvel(k, xp)[rest], yaw, xp)
-    ang = quat.rotate_yaw(k.cvel[rest, :3], yaw, xp)
+    lin = quat.rotate_yaw(k.linvel[rest], yaw, xp)
+    ang = quat.rotate_yaw(k.angvel[rest], yaw, xp)
     return xp.concatenate([xp.reshape(x, (-1,)) for x in (pos, forward, up, lin, ang)])
 
 
