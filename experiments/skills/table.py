@@ -21,6 +21,12 @@ PAPER_NR = {"walk": 0.985, "run": 0.951, "jog": 0.951, "jump": 0.947, "crawl": 0
 
 
 def evaluations(run: Path) -> list[dict]:
+    """The run's evaluations from metrics.jsonl; a run whose metrics did not come back from the
+    GPU has only its final evaluation (eval.json)."""
+    if not (run / "metrics.jsonl").is_file():
+        final = json.loads((run / "eval.json").read_text())
+        return [{"step": final["samples"], "wall": final["train_seconds"],
+                 **{f"eval/{k}": v for k, v in final.items()}}]
     rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line.strip()]
     return [r for r in rows if "eval/nr_paper" in r]
 
@@ -41,7 +47,7 @@ def row(run: Path) -> str:
 
 def main(paths: list[str]) -> None:
     runs = [Path(p) for p in paths] or sorted(p for p in Path(__file__).parent.iterdir()
-                                              if (p / "metrics.jsonl").is_file())
+                                              if (p / "metrics.jsonl").is_file() or (p / "eval.json").is_file())
     print("| clip | paper NR (Table 2) | best NR, paper form | released form | reached paper | samples | "
           "seconds | final NR, paper form | final samples | final fall rate |")
     print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|")

@@ -2,10 +2,11 @@
 
 The env needs, for the simulated body and the reference alike, only the body frames, centres of
 mass and velocities (`Kin`). MJX's general kinematics (mj_kinematics, mj_comPos, mj_comVel) also
-computes geoms, sites, inertias and motion subspaces, and it is the largest part of the compiled
-training step: three copies of it (simulated body, reference, fresh reset) made most of the
-step's compile time. This walks the kinematic tree once, level by level (all bodies of one depth
-at once), with MuJoCo's conventions, and is tested against MuJoCo C on every character.
+computes geoms, sites, inertias and motion subspaces, and compiles several times slower; the
+training step holds three copies (simulated body, reference, fresh reset), so its compile time
+is the start-up's (benchmarks/startup.py). This walks the kinematic tree once, level by level
+(the bodies of one depth with the same joint types at once), with MuJoCo's conventions, and is
+tested against MuJoCo C on every character and on joints anchored off the body origin.
 
 Conventions (MuJoCo's): a free joint's qpos is the body origin and orientation in the world, its
 qvel the origin's world velocity then the angular velocity in the body frame; a ball joint's qvel
@@ -25,16 +26,22 @@ from mjxmimic.core.kinematics import ROOT_BODY, Kin
 FREE, BALL, SLIDE, HINGE = 0, 1, 2, 3
 
 
+class _Joint(NamedTuple):
+    """The k-th joint of every body of a level (they share its type)."""
+
+    kind: int
+    qposadr: np.ndarray
+    dofadr: np.ndarray
+    pos: np.ndarray  # (n, 3) anchor in the body frame
+    axis: np.ndarray  # (n, 3)
+
+
 class _Level(NamedTuple):
-    """The bodies of one tree depth that carry joints of one type (or none)."""
+    """The bodies of one tree depth that carry the same sequence of joint types (maybe none)."""
 
     bodies: np.ndarray
     parents: np.ndarray
-    joint_type: int  # -1: welded to its parent
-    qposadr: np.ndarray
-    dofadr: np.ndarray
-    jnt_pos: np.ndarray  # (n, 3) anchor in the body frame
-    jnt_axis: np.ndarray  # (n, 3)
+    joints: tuple[_Joint, ...]
 
 
 class Tree(NamedTuple):
@@ -49,29 +56,27 @@ class Tree(NamedTuple):
 
 
 def read_tree(model: Any) -> Tree:
-    """The tree of `model`. Each body may carry at most one joint (every character here does);
-    a model that breaks this is refused by name."""
+    """The tree of `model`, read once (MuJoCo's compiler allows a free joint only on a child of
+    the world, where it sets the body's frame)."""
     nbody = model.nbody
     depth = np.zeros(nbody, int)
+    kinds = [()] * nbody
     for b in range(1, nbody):
         depth[b] = depth[model.body_parentid[b]] + 1
-        if model.body_jntnum[b] > 1:
-            raise ValueError(f"body {model.body(b).name!r} has {model.body_jntnum[b]} joints; "
-                             "forward kinematics here takes at most one per body")
-        if model.body_jntnum[b] == 1 and model.jnt_type[model.body_jntadr[b]] == FREE and model.body_parentid[b] != 0:
-            raise ValueError(f"body {model.body(b).name!r}: a free joint below another body")
+        first = model.body_jntadr[b]
+        kinds[b] = tuple(int(model.jnt_type[j]) for j in range(first, first + model.body_jntnum[b]))
     levels = []
     for d in range(1, depth.max() + 1):
-        at_depth = np.flatnonzero(depth == d)
-        types = np.where(model.body_jntnum[at_depth] == 1, model.jnt_type[model.body_jntadr[at_depth]], -1)
-        for t in sorted(set(types.tolist())):
-            bodies = at_depth[types == t]
-            joints = model.body_jntadr[bodies] if t >= 0 else np.zeros(len(bodies), int)
-            levels.append(_Level(
-                bodies=bodies, parents=model.body_parentid[bodies], joint_type=t,
-                qposadr=model.jnt_qposadr[joints], dofadr=model.jnt_dofadr[joints],
-                jnt_pos=np.asarray(model.jnt_pos[joints], np.float32),
-                jnt_axis=np.asarray(model.jnt_axis[joints], np.float32)))
+        at_depth = [b for b in range(1, nbody) if depth[b] == d]
+        for signature in sorted({kinds[b] for b in at_depth}):
+            bodies = np.array([b for b in at_depth if kinds[b] == signature])
+            joints = []
+            for k, kind in enumerate(signature):
+                ids = model.body_jntadr[bodies] + k
+                joints.append(_Joint(kind=kind, qposadr=model.jnt_qposadr[ids], dofadr=model.jnt_dofadr[ids],
+                                     pos=np.asarray(model.jnt_pos[ids], np.float32),
+                                     axis=np.asarray(model.jnt_axis[ids], np.float32)))
+            levels.append(_Level(bodies=bodies, parents=model.body_parentid[bodies], joints=tuple(joints)))
     in_root = np.zeros(nbody, bool)
     for b in range(1, nbody):
         in_root[b] = b == ROOT_BODY or in_root[model.body_parentid[b]]
@@ -117,27 +122,38 @@ def kinematics(tree: Tree, qpos: Any, qvel: Any, xp: Any = np) -> Kin:
         p_pos, p_rot, p_omega = xpos[p], xmat[p], omega[p]
         pos = p_pos + _apply(p_rot, tree.body_pos[b], xp)
         rot = p_rot @ tree.body_rot[b]
-        w, v = p_omega, vel[p] + xp.cross(p_omega, pos - p_pos)
-        if lv.joint_type == FREE:
-            pos = qpos[lv.qposadr[:, None] + np.arange(3)]
-            rot = quat.to_matrix(quat.normalize(qpos[lv.qposadr[:, None] + np.arange(3, 7)], xp), xp)
-            v = qvel[lv.dofadr[:, None] + np.arange(3)]
-            w = _apply(rot, qvel[lv.dofadr[:, None] + np.arange(3, 6)], xp)
-        elif lv.joint_type in (BALL, HINGE):
-            anchor = pos + _apply(rot, lv.jnt_pos, xp)
-            if lv.joint_type == BALL:
-                rot = rot @ quat.to_matrix(quat.normalize(qpos[lv.qposadr[:, None] + np.arange(4)], xp), xp)
-                w_joint = _apply(rot, qvel[lv.dofadr[:, None] + np.arange(3)], xp)
-            else:
-                w_joint = _apply(rot, lv.jnt_axis, xp) * qvel[lv.dofadr][:, None]
-                rot = rot @ _axis_angle_matrix(lv.jnt_axis, qpos[lv.qposadr], xp)
-            pos = anchor - _apply(rot, lv.jnt_pos, xp)
-            v = v + xp.cross(w_joint, pos - anchor)
-            w = w + w_joint
-        elif lv.joint_type == SLIDE:
-            axis = _apply(rot, lv.jnt_axis, xp)
-            pos = pos + axis * qpos[lv.qposadr][:, None]
-            v = v + axis * qvel[lv.dofadr][:, None]
+        turns = []  # each rotating joint: (joint, its anchor, a hinge's world axis)
+        slide = 0.0
+        for j in lv.joints:
+            if j.kind == FREE:
+                pos = qpos[j.qposadr[:, None] + np.arange(3)]
+                rot = quat.to_matrix(quat.normalize(qpos[j.qposadr[:, None] + np.arange(3, 7)], xp), xp)
+                continue
+            if j.kind == SLIDE:
+                axis = _apply(rot, j.axis, xp)
+                pos = pos + axis * qpos[j.qposadr][:, None]
+                slide = slide + axis * qvel[j.dofadr][:, None]
+                continue
+            anchor = pos + _apply(rot, j.pos, xp)
+            if j.kind == HINGE:
+                turns.append((j, anchor, _apply(rot, j.axis, xp)))
+                rot = rot @ _axis_angle_matrix(j.axis, qpos[j.qposadr], xp)
+            else:  # BALL
+                turns.append((j, anchor, None))
+                rot = rot @ quat.to_matrix(quat.normalize(qpos[j.qposadr[:, None] + np.arange(4)], xp), xp)
+            pos = anchor - _apply(rot, j.pos, xp)
+        if lv.joints and lv.joints[0].kind == FREE:
+            j = lv.joints[0]
+            w, v = _apply(rot, qvel[j.dofadr[:, None] + np.arange(3, 6)], xp), qvel[j.dofadr[:, None] + np.arange(3)]
+        else:
+            w, v = p_omega, vel[p] + xp.cross(p_omega, pos - p_pos) + slide
+            for j, anchor, axis in turns:
+                if j.kind == HINGE:
+                    turn = axis * qvel[j.dofadr][:, None]
+                else:  # a ball's dofs turn about the body's final axes
+                    turn = _apply(rot, qvel[j.dofadr[:, None] + np.arange(3)], xp)
+                w = w + turn
+                v = v + xp.cross(turn, pos - anchor)
         xpos, xmat = _set(xp, xpos, b, pos), _set(xp, xmat, b, rot)
         omega, vel = _set(xp, omega, b, w), _set(xp, vel, b, v)
     offset = _apply(xmat, tree.body_ipos, xp)
