@@ -171,8 +171,8 @@ def test_pose_termination_ends_training_episodes_that_lose_the_reference(env, tr
     sim = c_kin(env.model, np.asarray(away.pipeline_state.qpos), np.asarray(away.pipeline_state.qvel))
     ref = c_kin(env.model, np.asarray(standing.pipeline_state.qpos), np.asarray(standing.pipeline_state.qvel))
     for metres, lost in ((0.3, True), (0.8, False)):  # the training-only term, 0.5 m away
-        o = termination.Outcome(sim=sim, ref=ref, contacts=None, fall_mask=None, diverged=False,
-                                max_joint_velocity=100.0, pose_termination_m=metres)
+        o = termination.Outcome(sim=sim, ref=ref, contacts=None, fall_mask=None, reference_contacts=None,
+                                diverged=False, max_joint_velocity=100.0, pose_termination_m=metres)
         assert bool(termination.pose_deviation(o, np)) == lost
     assert termination.training_list(0.3) == ("fall", "bad_state", "pose_deviation")
     assert "pose_deviation" not in termination.evaluation_list()
@@ -327,3 +327,25 @@ def test_push_event_moves_the_root_the_same_way_on_mjx_and_mujoco_c(env):
     cpu.set_state(q, v, 0.3, steps=15, event_seed=float(state.info["event_seed"]))
     cpu.step(np.zeros(env.action_size))
     np.testing.assert_allclose(cpu.data.qvel[0:2], mjx_pushed, atol=0.02)
+
+
+def test_a_getup_starting_on_its_back_is_no_fall(deepmimic_dir, character):
+    """getup_faceup starts lying on its back: the root and chest (its fall-contact bodies) touch
+    the floor because the reference does. That is no fall by default; under DeepMimic's plain rule
+    (env.fall_ignores_reference_contacts=false) the episode ends at once. Standing, the same
+    contact is a fall either way."""
+    from mjxmimic.core.config import make_config
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip, resolve_clip
+
+    clip = load_clip(resolve_clip("getup_faceup", str(deepmimic_dir / "motions"), character.clip_prefix), character)
+    for ignore in (True, False):
+        config = make_config("cpu", {"env.action_mode": "residual", "env.fall_ignores_reference_contacts": ignore})
+        env = CpuEnv(config, character, clip)
+        env.reset_at(0.0)
+        assert env.step(np.zeros(env.action_size)).fell != ignore
+    walk = load_clip(resolve_clip("walk", str(deepmimic_dir / "motions"), character.clip_prefix), character)
+    env = CpuEnv(make_config("cpu", {"env.action_mode": "residual"}), character, walk)
+    env.reset_at(0.0)
+    env.data.qpos[2] = 0.12  # the root dropped to the floor while the reference walks
+    assert env.step(np.zeros(env.action_size)).fell

@@ -32,6 +32,10 @@ class EnvConfig:
     episode_seconds: float = 20.0  # time limit (a timeout, not a failure)
     rsi: bool = True  # reset to a random reference time; else to the clip's start
     early_termination: bool = True
+    # A fall-contact body touching the floor is no fall while the reference's same geom is on the
+    # floor too (within 5 cm, by its bounding sphere): a getup or a roll starts or passes lying
+    # down. DeepMimic's rule, false here, ends such episodes at once.
+    fall_ignores_reference_contacts: bool = True
     # Training only: a step on which some body's centre is more than this far (m) from the
     # reference's ends the episode as a failure, so that standing still while the reference flips
     # is no better than falling (MimicKit's DeepMimic setup uses 1.0). 0 = off (DeepMimic's).

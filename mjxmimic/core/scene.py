@@ -64,6 +64,14 @@ def build_scene(character: Character, physics_hz: int, solver_iterations: int, l
                  contact_adr=np.array(adr, dtype=np.int32))
 
 
+def sensor_geoms(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per contact sensor: its geom's body, the geom's centre relative to that body's centre of
+    mass (body frame), and the geom's bounding-sphere radius."""
+    m, g = scene.model, scene.contact_geoms
+    body = m.geom_bodyid[g]
+    return body, (m.geom_pos[g] - m.body_ipos[body]).astype(np.float32), m.geom_rbound[g].astype(np.float32)
+
+
 def fall_mask(scene: Scene, character: Character, spec: str) -> np.ndarray:
     """(S,) bool: which contact sensors end an episode for the fall-contact set `spec`."""
     bodies = np.array(character.fall_bodies(spec))

@@ -19,14 +19,27 @@ class Outcome(NamedTuple):
     ref: Kin
     contacts: Any  # (S,) bool, floor-contact sensors that fired during the step
     fall_mask: Any  # (S,) bool, the sensors that count as a fall for this env's clip
+    reference_contacts: Any  # (S,) bool, the sensors whose geom the reference has on the floor too
     diverged: Any  # bool, the simulator's own divergence flag
     max_joint_velocity: float
     pose_termination_m: float
 
 
+# a reference geom whose bounding sphere comes this close to the floor counts as touching it
+REFERENCE_CONTACT_M = 0.05
+
+
 def fall(o: Outcome, xp: Any) -> Any:
-    """A fall-contact body touched the floor (DeepMimic's early termination)."""
-    return xp.any(o.contacts & o.fall_mask)
+    """A fall-contact body touched the floor (DeepMimic's early termination), where the reference
+    did not have it there too."""
+    return xp.any(o.contacts & o.fall_mask & ~o.reference_contacts)
+
+
+def reference_contacts(ref: Kin, body: Any, offset: Any, radius: Any, xp: Any) -> Any:
+    """(S,) bool: for each contact sensor (its geom's body, centre offset and bounding radius,
+    mjxmimic.core.scene.sensor_geoms), whether the reference pose has that geom on the floor."""
+    centre = ref.xipos[body] + xp.einsum("sij,sj->si", ref.xmat[body], offset)
+    return centre[:, 2] - radius < REFERENCE_CONTACT_M
 
 
 def bad_state(o: Outcome, xp: Any) -> Any:
