@@ -334,7 +334,6 @@ def test_a_getup_starting_on_its_back_is_no_fall(deepmimic_dir, character):
     the floor because the reference does. That is no fall by default; under DeepMimic's plain rule
     (env.fall_ignores_reference_contacts=false) the episode ends at once. Standing, the same
     contact is a fall either way."""
-    from mjxmimic.core.config import make_config
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.motion.clip import load_clip, resolve_clip
 

@@ -2,9 +2,9 @@
 
 The env needs, for the simulated body and the reference alike, only the body frames, centres of
 mass and velocities (`Kin`). MJX's general kinematics (mj_kinematics, mj_comPos, mj_comVel) also
-computes geoms, sites, inertias and motion subspaces, and compiles several times slower; the
-training step holds three copies (simulated body, reference, fresh reset), so its compile time
-is the start-up's (benchmarks/startup.py). This walks the kinematic tree once, level by level
+computes geoms, sites, inertias and motion subspaces, and compiles several times slower, three
+times over in each training step (simulated body, reference, fresh reset; benchmarks/startup.py
+times both). This walks the kinematic tree once, level by level
 (the bodies of one depth with the same joint types at once), with MuJoCo's conventions, and is
 tested against MuJoCo C on every character and on joints anchored off the body origin.
 
@@ -144,7 +144,8 @@ def kinematics(tree: Tree, qpos: Any, qvel: Any, xp: Any = np) -> Kin:
             pos = anchor - _apply(rot, j.pos, xp)
         if lv.joints and lv.joints[0].kind == FREE:
             j = lv.joints[0]
-            w, v = _apply(rot, qvel[j.dofadr[:, None] + np.arange(3, 6)], xp), qvel[j.dofadr[:, None] + np.arange(3)]
+            v = qvel[j.dofadr[:, None] + np.arange(3)]
+            w = _apply(rot, qvel[j.dofadr[:, None] + np.arange(3, 6)], xp)
         else:
             w, v = p_omega, vel[p] + xp.cross(p_omega, pos - p_pos) + slide
             for j, anchor, axis in turns:

@@ -22,8 +22,9 @@ ROOT_BODY = 1
 
 
 def kin_from_data(d: Any, xp: Any) -> Kin:
-    """Read a Kin from MuJoCo data whose kinematics and com velocities are current (mj_kinematics,
-    mj_comPos, mj_comVel), copied out of it: MuJoCo's cvel holds [angular; linear at the root's subtree com]."""
+    """A copy of the Kin in MuJoCo data whose kinematics and com velocities are current
+    (mj_kinematics, mj_comPos, mj_comVel); MuJoCo's cvel is [angular; linear at the root's
+    subtree com]."""
     xipos = xp.array(d.xipos)
     com = xp.array(d.subtree_com)[ROOT_BODY]
     cvel = xp.array(d.cvel)

@@ -21,8 +21,9 @@ import math
 import shutil
 import signal
 import sys
+import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any, Callable
 
@@ -133,8 +134,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     evaluator = Evaluator(env, config, trainer.make_policy)
     # The train step compiles in a thread while the env states are drawn; the evaluator compiles
     # in another while training starts (compilation is most of a run's first minute).
-    compiling = ThreadPoolExecutor(max_workers=2, thread_name_prefix="mjxmimic-compile")
-    step_compiled = compiling.submit(trainer.compile_train_step)
+    step_compiled = _in_background(trainer.compile_train_step)
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -164,7 +164,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     last_ckpt_steps = env_steps
     spi = trainer.samples_per_iteration
 
-    eval_compiled = compiling.submit(evaluator.compile, export_params(ts))
+    eval_compiled = _in_background(evaluator.compile, export_params(ts))
     eval_seed = run_cfg.seed + 1
 
     def elapsed() -> float:
@@ -319,13 +319,27 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                                                                       if isinstance(v, (int, float))}})
     finally:
         log.close()
-        compiling.shutdown(cancel_futures=True)
     if reason == "non_finite":
         raise UserError(f"{run_dir}: training stopped: {non_finite} (the learning rate or the "
                         f"physics diverged); the last good checkpoint, at {last_ckpt_steps:,} samples, is kept")
     exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
     return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps,
                    iterations=iterations, summary=out, final_eval=final)
+
+
+def _in_background(fn: Callable, *args: Any) -> Future:
+    """fn(*args) in a daemon thread (XLA compiles without the GIL): a run that stops with an
+    error does not wait for a compilation nobody needs any more."""
+    future: Future = Future()
+
+    def work() -> None:
+        try:
+            future.set_result(fn(*args))
+        except BaseException as err:  # handed to whoever waits for the result
+            future.set_exception(err)
+
+    threading.Thread(target=work, name="mjxmimic-compile", daemon=True).start()
+    return future
 
 
 def _disk_full(err: BaseException) -> bool:
