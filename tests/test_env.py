@@ -171,7 +171,7 @@ def test_pose_termination_ends_training_episodes_that_lose_the_reference(env, tr
     sim = c_kin(env.model, np.asarray(away.pipeline_state.qpos), np.asarray(away.pipeline_state.qvel))
     ref = c_kin(env.model, np.asarray(standing.pipeline_state.qpos), np.asarray(standing.pipeline_state.qvel))
     for metres, lost in ((0.3, True), (0.8, False)):  # the training-only term, 0.5 m away
-        o = termination.Outcome(sim=sim, ref=ref, contacts=None, fall_mask=None, reference_contacts=None,
+        o = termination.Outcome(sim=sim, ref=ref, contacts=None, fall_mask=None, reference_geoms=None,
                                 diverged=False, max_joint_velocity=100.0, pose_termination_m=metres)
         assert bool(termination.pose_deviation(o, np)) == lost
     assert termination.training_list(0.3) == ("fall", "bad_state", "pose_deviation")

@@ -100,15 +100,6 @@ def _apply(r: Any, v: Any, xp: Any) -> Any:
     return xp.einsum("nij,...nj->...ni", r, v) if v.ndim == 2 else xp.einsum("nij,j->ni", r, v)
 
 
-def _axis_angle_matrix(axis: np.ndarray, angle: Any, xp: Any) -> Any:
-    """Rodrigues: rotation by `angle` (n,) about unit `axis` (n, 3), as (n, 3, 3)."""
-    k = np.zeros((len(axis), 3, 3), np.float32)  # the cross-product matrix of each axis
-    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
-    k = k - k.transpose(0, 2, 1)
-    s, c = xp.sin(angle)[:, None, None], xp.cos(angle)[:, None, None]
-    return np.eye(3, dtype=np.float32) + s * k + (1.0 - c) * (k @ k)
-
-
 def kinematics(tree: Tree, qpos: Any, qvel: Any, xp: Any = np) -> Kin:
     """`Kin` of one pose (qpos, qvel); the same numbers as MuJoCo's kinematics and com velocity."""
     n = tree.nbody
@@ -137,7 +128,7 @@ def kinematics(tree: Tree, qpos: Any, qvel: Any, xp: Any = np) -> Kin:
             anchor = pos + _apply(rot, j.pos, xp)
             if j.kind == HINGE:
                 turns.append((j, anchor, _apply(rot, j.axis, xp)))
-                rot = rot @ _axis_angle_matrix(j.axis, qpos[j.qposadr], xp)
+                rot = rot @ quat.to_matrix(quat.from_rotvec(j.axis * qpos[j.qposadr][:, None], xp), xp)
             else:  # BALL
                 turns.append((j, anchor, None))
                 rot = rot @ quat.to_matrix(quat.normalize(qpos[j.qposadr[:, None] + np.arange(4)], xp), xp)

@@ -48,7 +48,7 @@ class Spec(NamedTuple):
     layout: Layout
     lib: motion_lib.MotionLib
     fall_masks: Any  # (C, S) bool: per clip, the contact sensors that count as a fall
-    sensor_geoms: Any  # per contact sensor: body, centre offset, radius (scene.sensor_geoms); None: unused
+    reference_geoms: Any  # per contact sensor: body, centre offset, radius; None: DeepMimic's fall rule
     observations: tuple[str, ...]
     events: tuple[str, ...]
     rewards: tuple[reward_terms.Term, ...]
@@ -102,7 +102,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         layout=make_layout(character),
         lib=lib,
         fall_masks=xp.asarray(np.stack(masks)),
-        sensor_geoms=(tuple(xp.asarray(a) for a in sensor_geoms(scene))
+        reference_geoms=(tuple(xp.asarray(a) for a in sensor_geoms(scene))
                       if config.env.fall_ignores_reference_contacts else None),
         observations=obs_terms.parse(env.observations),
         events=event_terms.parse(env.events),
@@ -261,10 +261,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     if task.name:
         r = task.imitation_weight * r + task.task_weight * metrics["reward/task"]
 
-    touching = (xp.zeros_like(sub.contacts) if spec.sensor_geoms is None
-                else termination.reference_contacts(ref, *spec.sensor_geoms, xp))
     outcome = termination.Outcome(sim=sim, ref=ref, contacts=sub.contacts, fall_mask=spec.fall_masks[clip],
-                                  reference_contacts=touching,
+                                  reference_geoms=spec.reference_geoms,
                                   diverged=sub.diverged, max_joint_velocity=env.max_joint_velocity,
                                   pose_termination_m=env.pose_termination_m)
     fired = {name: termination.TERMS[name](outcome, xp) for name in terminations}

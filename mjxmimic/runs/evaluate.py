@@ -157,9 +157,13 @@ class Evaluator:
         start = time.time()
         key = jax.random.PRNGKey(seed)
         task, dt = task_of(self.env), self.env.control_dt
-        result = per_clip(self.env, lambda c: summarize(jax.device_get(self._episodes(params, key, True, c)), dt, task))
+
+        def graded(deterministic: bool) -> dict:
+            return per_clip(self.env, lambda c: summarize(
+                jax.device_get(self._episodes(params, key, deterministic, c)), dt, task))
+
+        result = graded(True)
         if self.stochastic:
-            noisy = per_clip(self.env, lambda c: summarize(jax.device_get(self._episodes(params, key, False, c)), dt,
-                                                           task))
+            noisy = graded(False)
             result.update({f"stochastic_{k}": noisy[k] for k in self.STOCHASTIC_FIELDS})
         return _finish(result, time.time() - start, samples, train_seconds)

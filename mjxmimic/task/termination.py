@@ -19,7 +19,7 @@ class Outcome(NamedTuple):
     ref: Kin
     contacts: Any  # (S,) bool, floor-contact sensors that fired during the step
     fall_mask: Any  # (S,) bool, the sensors that count as a fall for this env's clip
-    reference_contacts: Any  # (S,) bool, the sensors whose geom the reference has on the floor too
+    reference_geoms: Any  # per sensor: body, centre offset, radius (scene.sensor_geoms); None: plain rule
     diverged: Any  # bool, the simulator's own divergence flag
     max_joint_velocity: float
     pose_termination_m: float
@@ -30,14 +30,17 @@ REFERENCE_CONTACT_M = 0.05
 
 
 def fall(o: Outcome, xp: Any) -> Any:
-    """A fall-contact body touched the floor (DeepMimic's early termination), where the reference
-    did not have it there too."""
-    return xp.any(o.contacts & o.fall_mask & ~o.reference_contacts)
+    """A fall-contact body touched the floor (DeepMimic's early termination), unless the reference
+    has that geom on the floor too (env.fall_ignores_reference_contacts)."""
+    falls = o.contacts & o.fall_mask
+    if o.reference_geoms is not None:
+        falls = falls & ~reference_contacts(o.ref, *o.reference_geoms, xp)
+    return xp.any(falls)
 
 
 def reference_contacts(ref: Kin, body: Any, offset: Any, radius: Any, xp: Any) -> Any:
-    """(S,) bool: for each contact sensor (its geom's body, centre offset and bounding radius,
-    mjxmimic.core.scene.sensor_geoms), whether the reference pose has that geom on the floor."""
+    """(S,) bool: for each contact sensor (its geom's body, centre offset and bounding radius),
+    whether the reference pose has that geom on the floor."""
     centre = ref.xipos[body] + xp.einsum("sij,sj->si", ref.xmat[body], offset)
     return centre[:, 2] - radius < REFERENCE_CONTACT_M
 
