@@ -8,6 +8,8 @@
 # ARGS, which may then only be --set run.* or ppo.learning_rate* keys). SECONDS bounds each run.
 # Several lanes on a machine with a GPU for each: one GPU per lane; otherwise they share the GPUs
 # (one lane alone trains data-parallel).
+# PACK=policies: instead of the checkpoints, bring back each run's exported best policy
+# (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed).
 set -u
 seconds=$1; shift
 export PYTHONUNBUFFERED=1
@@ -58,6 +60,12 @@ for line in open(sys.argv[1] + "/metrics.jsonl"):
               f"  paper {d['eval/nr_paper']:.3f}  falls {d['eval/fall_rate']:.2f}{extra}")
 PY
 done
+if [ "${PACK:-checkpoints}" = policies ]; then
+  for n in "${names[@]}"; do python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed"; done
+  for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done
+  tar czf "$OUT/policies.tgz" --exclude=checkpoints --exclude=best runs
+  exit 0
+fi
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
   ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
 done

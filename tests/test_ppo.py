@@ -123,6 +123,19 @@ def test_std_mode(mode):
     assert np.abs(loc).max() > 0.1  # the mean learned in both modes
 
 
+@pytest.mark.parametrize("precision", ["default", "BF16_BF16_F32"])
+def test_matmul_precision_reaches_the_network_products(precision):
+    """Each product of the policy and value networks (rollout, loss, gradients) carries the
+    chosen dot algorithm; "default" leaves every product as XLA would have it."""
+    trainer = make_trainer(StandInEnv(), make_config("cpu", {"ppo.matmul_precision": precision}))
+    jaxpr = str(jax.make_jaxpr(trainer._train_step)(trainer._abstract_state))
+    tagged = jaxpr.count("precision=BF16_BF16_F32")
+    if precision == "default":
+        assert tagged == 0
+    else:  # 3 layers x 2 networks: forward in the rollout, forward and two products backward in SGD
+        assert tagged >= 3 * 2 * 3 and jaxpr.count("dot_general[") >= tagged
+
+
 def test_donates_the_input_state(trainer):
     ts = trainer.init(1)
     leaf = ts.params.policy["params"]["hidden_0"]["kernel"]

@@ -116,6 +116,10 @@ class PPOConfig:
     # "learned": the std is an output of the policy, trained with it; "fixed": it stays
     # init_action_std in every state (DeepMimic's fixed exploration noise)
     std_mode: str = "learned"
+    # the networks' matrix products in rollouts and updates, as JAX's dot algorithm presets:
+    # "default" (XLA's choice), "BF16_BF16_F32", "TF32_TF32_F32" (GPU only) or "F32_F32_F32";
+    # physics and the reward are not affected
+    matmul_precision: str = "default"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,6 +153,7 @@ class Config:
 
 LR_SCHEDULES = ("constant", "linear", "cosine")
 STD_MODES = ("learned", "fixed")
+MATMUL_PRECISIONS = ("default", "BF16_BF16_F32", "TF32_TF32_F32", "F32_F32_F32")
 TASKS = ("heading", "strike")  # mjxmimic.task.goals
 
 PRESETS: dict[str, dict[str, Any]] = {
@@ -305,6 +310,8 @@ def validate(config: Config) -> None:
         (ppo.num_epochs >= 1, "ppo.num_epochs", "must be at least 1"),
         (ppo.learning_rate > 0, "ppo.learning_rate", "must be positive"),
         (ppo.std_mode in STD_MODES, "ppo.std_mode", f"must be one of {', '.join(STD_MODES)}"),
+        (ppo.matmul_precision in MATMUL_PRECISIONS, "ppo.matmul_precision",
+         f"must be one of {', '.join(MATMUL_PRECISIONS)}"),
         (ppo.learning_rate_schedule in LR_SCHEDULES, "ppo.learning_rate_schedule",
          f"must be one of {', '.join(LR_SCHEDULES)}"),
         (ppo.learning_rate_final > 0, "ppo.learning_rate_final", "must be positive"),

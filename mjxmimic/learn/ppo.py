@@ -162,6 +162,21 @@ def _std_half_frozen(action_size: int) -> optax.GradientTransformation:
     return optax.stateless(freeze)
 
 
+def in_precision(fn: Callable, precision: str) -> Callable:
+    """`fn` traced under `jax.default_matmul_precision(precision)`: the precision is fixed on each
+    matrix product as it is traced, so it reaches the networks alone when only their calls are
+    wrapped ("default" leaves `fn` as it is)."""
+    if precision == "default":
+        return fn
+
+    @functools.wraps(fn)
+    def traced_in_precision(*args, **kwargs):
+        with jax.default_matmul_precision(precision):
+            return fn(*args, **kwargs)
+
+    return traced_in_precision
+
+
 def make_optimizer(config: Config, learning_rate: float | jax.Array,
                    action_size: int = 0) -> optax.GradientTransformation:
     """Adam after global-norm clipping. The rate is a plain scale, so the optimiser state is the
@@ -280,6 +295,7 @@ class Trainer:
         key, k_unroll, k_sgd = jax.random.split(ts.key, 3)
         policy = ppo_networks.make_inference_fn(self.networks)((ts.normalizer, ts.params.policy),
                                                                deterministic=False)
+        policy = in_precision(policy, cfg.matmul_precision)
         env_state, data = acting.generate_unroll(
             self._batched_env, ts.env_state, policy, k_unroll, cfg.unroll_length,
             extra_fields=("truncation", _STEP_METRICS))
@@ -315,8 +331,8 @@ class Trainer:
         learning_rate = learning_rate_at(self.config, samples)
         metrics["ppo/learning_rate"] = learning_rate
         optimizer = make_optimizer(self.config, learning_rate, self.env.action_size)
-        update = gradients.gradient_update_fn(loss_fn, optimizer,
-                                              pmap_axis_name=None, has_aux=True)
+        update = in_precision(gradients.gradient_update_fn(loss_fn, optimizer, pmap_axis_name=None,
+                                                           has_aux=True), cfg.matmul_precision)
 
         def minibatch_step(carry, batch):
             params, opt_state, k = carry
