@@ -186,9 +186,13 @@ PRESETS: dict[str, dict[str, Any]] = {
     # unstably); 48 M samples with a cosine learning rate, which fit one 10-minute call on an H200
     # (walk: NR 0.865 in 539 s, experiments/README.md). Pose termination at 1 m: without it a
     # backflip stood still under its flipping reference (NR 0.37 against 0.64 at 20 M); with it
-    # kick, punch and cartwheel passed the paper's NR within 48 M (experiments/skills).
+    # kick, punch and cartwheel passed the paper's NR within 48 M (experiments/skills). The
+    # networks multiply in bfloat16 (float32 sums and parameters): the PPO update is the part of
+    # an iteration that is not physics, and walk and backflip learned as before with it
+    # (benchmarks/RESULTS.md, experiments/README.md).
     "gpu": {
         "env.pose_termination_m": 1.0,
+        "ppo.matmul_precision": "BF16_BF16_F32",
         "ppo.num_envs": 8192,
         "ppo.unroll_length": 16,
         "ppo.learning_rate_schedule": "cosine",
