@@ -72,6 +72,7 @@ def test_rsi_draws_clips_by_weight(two_clip_env):
     assert 0.72 < share < 0.78  # weights 3 : 1
 
 
+@pytest.mark.slow
 def test_skill_selector_and_max_of_clips_reward(two_clip_env):
     env = two_clip_env
     reset = jax.jit(env.reset_at)
@@ -85,6 +86,7 @@ def test_skill_selector_and_max_of_clips_reward(two_clip_env):
         assert best > 0.5
 
 
+@pytest.mark.slow
 def test_evaluation_reports_each_clip(two_clip_env):
     from mjxmimic.runs.evaluate import evaluate
 

@@ -278,6 +278,7 @@ def test_a_nan_state_is_reset_counted_and_not_a_fall(env, env_fns, reset_at):
     assert float(fine.metrics["physics/reset_nan"]) == 0.0
 
 
+@pytest.mark.slow
 def test_two_clip_library_draws_both_and_grades_each_env_against_its_own_clip(env, character):
     """Per-env motion state: a walk and a squat in one env; resets draw both clips by weight, and
     an env placed on either clip's reference scores ~1 against that clip and less against the other."""

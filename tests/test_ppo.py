@@ -157,6 +157,7 @@ def test_config_errors_are_one_line():
         make_trainer(StandInEnv(), make_config("cpu", {"ppo.init_action_std": 0.0005}))
 
 
+@pytest.mark.slow
 def test_two_devices_shard_the_batch_and_all_reduce():
     script = textwrap.dedent("""
         import sys

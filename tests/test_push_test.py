@@ -52,6 +52,7 @@ def test_wrench_pushes_the_root_along_its_facing(direction):
     assert np.all(protocol.wrench(qpos, 300.0, 0.0, 0.0, 5, np) == 0)
 
 
+@pytest.mark.slow
 def test_pushed_trials_on_mjx(residual_env):
     """A real push through the env: a strong forward push speeds the root up along its facing,
     and knocks every trial down where an unpushed trial set does not fall more."""

@@ -83,6 +83,7 @@ def ray_sweep(spec_path: Path, *train: str, timeout: float = 300) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_ray_executor_matches_local_runner(tmp_path, monkeypatch):
     """The submitit test's sweep through Ray Tune: one run finishes, the failing one is isolated,
     and the report rows match the local runner's."""
@@ -130,6 +131,7 @@ FAKE_EVALS = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_ray_scheduler_prunes_the_weaker_run(tmp_path, monkeypatch, capsys):
     """ASHA from the spec's ray block: the run that is behind at the first rung is stopped (it
     checkpoints), reported as pruned with its last NR, and left as it is by the next call."""
@@ -161,6 +163,7 @@ def test_ray_scheduler_prunes_the_weaker_run(tmp_path, monkeypatch, capsys):
     assert "[2/2] squat-s1: pruned already, skipped" in lines
 
 
+@pytest.mark.slow
 def test_ray_sweep_sigterm_checkpoints_every_trial(tmp_path):
     """SIGTERM (or Ctrl-C) to a Ray sweep: Tune stops every trial, each training checkpoints, and
     the runs are recorded interrupted, to be resumed by the next call."""

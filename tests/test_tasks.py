@@ -108,6 +108,7 @@ def test_task_config_errors():
         make_config("cpu", {"task.resample_s": 0})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("task, size", [("heading", 3), ("strike", 4)])
 def test_mjx_env_appends_the_goal_and_evaluates_the_task(character, task, size):
     import jax
