@@ -9,7 +9,8 @@
 # Several lanes on a machine with a GPU for each: one GPU per lane; otherwise they share the GPUs
 # (one lane alone trains data-parallel).
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
-# (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed).
+# (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
+# PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
 set -u
 seconds=$1; shift
 export PYTHONUNBUFFERED=1
@@ -60,10 +61,11 @@ for line in open(sys.argv[1] + "/metrics.jsonl"):
               f"  paper {d['eval/nr_paper']:.3f}  falls {d['eval/fall_rate']:.2f}{extra}")
 PY
 done
-if [ "${PACK:-checkpoints}" = policies ]; then
+if [ "${PACK:-checkpoints}" != checkpoints ]; then
   for n in "${names[@]}"; do python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed"; done
   for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done
-  tar czf "$OUT/policies.tgz" --exclude=checkpoints --exclude=best runs
+  keep_best=(--exclude=best); [ "$PACK" = best ] && keep_best=()
+  tar czf - --exclude=checkpoints "${keep_best[@]}" runs | split -b 15M - "$OUT/policies.tgz."
   exit 0
 fi
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
