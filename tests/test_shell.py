@@ -4,7 +4,6 @@ newest checkpoint, a policy that turns NaN; each answered with one line, nothing
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
