@@ -12,7 +12,7 @@ from mjxmimic.core.config import make_config
 from mjxmimic.motion.clip import load_clip_source
 from mjxmimic.envs.cpu_env import CpuEnv
 import mjxmimic.portable.playback, mjxmimic.portable.policy_file, mjxmimic.portable.policy_numpy
-import mjxmimic.portable.push_playback
+import mjxmimic.portable.push_playback, mjxmimic.portable.composite
 ch = load_character()
 env = CpuEnv(make_config("cpu"), ch, load_clip_source("slow_walk", ch))
 env.reset_at(0.2)

@@ -39,6 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
     parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
+    parser.add_argument("--knockdowns", type=int, default=50,
+                        help="a composite file: knock-downs of its recovery test (default 50)")
+    parser.add_argument("--push-force", type=float, default=1000.0,
+                        help="a composite file: the knock-down push on the pelvis, N for 0.2 s (default 1000)")
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a policy trained on a dataset with the skill observation: switch the skill it "
                              "follows, e.g. \"walk:4,run:4,walk:4\" (one run, no reset between skills)")
@@ -192,8 +196,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
 
     from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.portable import composite
     from mjxmimic.portable.playback import evaluate
     from mjxmimic.runs.folder import load_policy_file
+
+    if composite.is_composite(args.policy):
+        return _recovery(args, composite.read(args.policy))
 
     pf = load_policy_file(args.policy)
     character = pf.character()
@@ -265,4 +273,23 @@ def run(args: argparse.Namespace) -> int:
     for key, value in rows:
         print(f"  {key:<{width}}  {value}")
     sys.stdout.flush()
+    return 0
+
+
+def _recovery(args: argparse.Namespace, comp) -> int:
+    """A composite file: its recovery test on MuJoCo C (mjxmimic.portable.composite)."""
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable import composite
+
+    if args.knockdowns < 1:
+        raise UserError(f"--knockdowns {args.knockdowns}: must be at least 1")
+    out = composite.recovery_test(comp, args.knockdowns, args.push_force, 0 if args.seed is None else args.seed)
+    out["composite"] = str(args.policy)
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    shares = ", ".join(f"{k} {v:.0%}" for k, v in out["expert_time_share"].items())
+    median = "-" if out["median_recovery_s"] is None else f"{out['median_recovery_s']:.2f} s"
+    print(f"{args.policy}: {out['knockdowns']} knock-downs in {out['pushes']} pushes of {out['force_n']:.0f} N; "
+          f"recovered {out['recovery_rate']:.0%} (median {median} from down to walking); time: {shares}")
     return 0

@@ -400,8 +400,8 @@ def resolve_clip(source: str | Path, user_dir: str | Path | None = None, prefix:
                        for label, folder in folders)
     if not any(label == "pybullet" for label, _ in folders):
         looked += "; pybullet_data (not installed)"
-    raise ClipError(f"unknown clip {source!r}: no such file, and no {source}.txt, {source}.json or "
-                    f"{prefix}{source}.txt in: {looked}")
+    names = ", ".join(repr(n) for n in (f"{source}.txt", f"{source}.json", f"{prefix}{source}.txt"))
+    raise ClipError(f"unknown clip {source!r}: no such file, and none of {names} in: {looked}")
 
 
 def clip_label(source: str) -> str:

@@ -70,6 +70,7 @@ from mjxmimic.portable.policy_numpy import NumpyPolicy
 FORMAT = "mjxmimic-policy"
 FORMAT_VERSION = 1
 FORMATS = ("npz", "onnx")
+NETWORKS = ("policy", "value")  # the MLPs a file may hold, each as NET/hidden_i/{kernel,bias}
 
 
 # ---------------------------------------------------------------------------------- the contents
@@ -80,7 +81,9 @@ class PolicyFile:
     """The contents of an exported policy (either format)."""
 
     manifest: dict[str, Any]
-    params: dict[str, Any]  # {"normalizer": {"mean", "std"}, "policy": {"hidden_i": {"kernel", "bias"}}}
+    # {"normalizer": {"mean", "std"}, "policy": {"hidden_i": {"kernel", "bias"}}, and, in files
+    # exported since composites exist, "value": the same for the value network}
+    params: dict[str, Any]
     character_xml: str
     clip_qpos: np.ndarray
     clip_durations: np.ndarray
@@ -135,9 +138,10 @@ class PolicyFile:
         """Every array under its npz key."""
         out = {"normalizer/mean": np.asarray(self.params["normalizer"]["mean"]),
                "normalizer/std": np.asarray(self.params["normalizer"]["std"])}
-        for name, layer in self.params["policy"].items():
-            out[f"policy/{name}/kernel"] = np.asarray(layer["kernel"])
-            out[f"policy/{name}/bias"] = np.asarray(layer["bias"])
+        for net in NETWORKS:
+            for name, layer in self.params.get(net, {}).items():
+                out[f"{net}/{name}/kernel"] = np.asarray(layer["kernel"])
+                out[f"{net}/{name}/bias"] = np.asarray(layer["bias"])
         out["clip/qpos"] = np.asarray(self.clip_qpos)
         out["clip/durations"] = np.asarray(self.clip_durations)
         for i, (qpos, durations) in enumerate(self.other_clips, start=1):
@@ -309,8 +313,9 @@ def make_policy_file(config: config_lib.Config, character: Character, clips: Any
 def _as_numpy(params: dict[str, Any]) -> dict[str, Any]:
     return {
         "normalizer": {k: np.asarray(params["normalizer"][k], np.float32) for k in ("mean", "std")},
-        "policy": {name: {k: np.asarray(layer[k], np.float32) for k in ("kernel", "bias")}
-                   for name, layer in params["policy"].items()},
+        **{net: {name: {k: np.asarray(layer[k], np.float32) for k in ("kernel", "bias")}
+                 for name, layer in params[net].items()}
+           for net in NETWORKS if net in params},
     }
 
 
@@ -347,23 +352,32 @@ def parse_manifest(text: str, path: Path) -> dict[str, Any]:
 
 def params_from_arrays(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     """The nested params back from their flat array names (the same names in npz and ONNX)."""
-    policy: dict[str, dict[str, np.ndarray]] = {}
+    nets: dict[str, dict[str, dict[str, np.ndarray]]] = {"policy": {}}
     for key, value in arrays.items():
-        if key.startswith("policy/"):
-            _, layer, part = key.split("/")
-            policy.setdefault(layer, {})[part] = value
-    return {"normalizer": {"mean": arrays["normalizer/mean"], "std": arrays["normalizer/std"]},
-            "policy": policy}
+        net, _, rest = key.partition("/")
+        if net in NETWORKS:
+            layer, part = rest.split("/")
+            nets.setdefault(net, {}).setdefault(layer, {})[part] = value
+    return {"normalizer": {"mean": arrays["normalizer/mean"], "std": arrays["normalizer/std"]}, **nets}
+
+
+def load_npz(path: Path) -> dict[str, np.ndarray]:
+    """Every array of an npz file; an unreadable file is a one-line UserError."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError) as err:
+        raise UserError(f"{path}: cannot read as an npz policy file ({err})") from None
 
 
 def read_npz(path: Path) -> PolicyFile:
     """An npz policy file; anything else is a one-line UserError."""
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as err:
-        raise UserError(f"{path}: cannot read as an npz policy file ({err})") from None
+    return from_arrays(load_npz(path), path)
+
+
+def from_arrays(data: dict[str, np.ndarray], path: Path) -> PolicyFile:
+    """A policy file's contents from its npz arrays (`path` names it in errors)."""
     for key in ("manifest", "character_xml", "normalizer/mean", "normalizer/std", "clip/qpos", "clip/durations"):
         if key not in data:
             raise UserError(f"{path}: not an mjxmimic policy file (no '{key}' array)")

@@ -24,6 +24,40 @@ import numpy as np
 _LAYER = re.compile(r"hidden_(\d+)$")
 
 
+def ordered_layers(params: Mapping[str, Any], net: str) -> list[tuple[Any, Any]]:
+    """[(kernel, bias)] of network `net` ("policy" or "value"), hidden_0 first."""
+    tree = params[net]
+    names = sorted((int(_LAYER.match(n).group(1)), n) for n in tree if _LAYER.match(n))
+    if [i for i, _ in names] != list(range(len(names))) or len(names) != len(tree) or not names:
+        raise ValueError(f"{net} layers must be hidden_0 .. hidden_N, got {sorted(tree)}")
+    return [(tree[n]["kernel"], tree[n]["bias"]) for _, n in names]
+
+
+def _mlp(obs: Any, mean: np.ndarray, std: np.ndarray, layers: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    h = (np.asarray(obs, np.float64) - mean) / std
+    for kernel, bias in layers[:-1]:
+        h = np.maximum(h @ kernel + bias, 0.0)
+    kernel, bias = layers[-1]
+    return h @ kernel + bias
+
+
+class NumpyValue:
+    """The value network (Brax's PPO value MLP on the same normalised observation, one output):
+    the expected discounted return from a state, which a composite's gate compares."""
+
+    def __init__(self, params: Mapping[str, Any]):
+        self.mean = np.asarray(params["normalizer"]["mean"], np.float64)
+        self.std = np.asarray(params["normalizer"]["std"], np.float64)
+        self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64))
+                       for k, b in ordered_layers(params, "value")]
+        if self.layers[-1][1].shape != (1,):
+            raise ValueError(f"the value network's last layer has {self.layers[-1][1].shape[0]} outputs, not 1")
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        """V(obs); obs may be batched (..., observation_size)."""
+        return _mlp(obs, self.mean, self.std, self.layers)[..., 0]
+
+
 class NumpyPolicy:
     """Deterministic policy from `export_params`-style arrays: normaliser and MLP layers."""
 
@@ -49,12 +83,7 @@ class NumpyPolicy:
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> NumpyPolicy:
         """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}."""
-        policy = params["policy"]
-        names = sorted((int(_LAYER.match(n).group(1)), n) for n in policy if _LAYER.match(n))
-        if [i for i, _ in names] != list(range(len(names))) or len(names) != len(policy):
-            raise ValueError(f"policy layers must be hidden_0 .. hidden_N, got {sorted(policy)}")
-        layers = [(policy[n]["kernel"], policy[n]["bias"]) for _, n in names]
-        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], layers)
+        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], ordered_layers(params, "policy"))
 
     @property
     def observation_size(self) -> int:
@@ -66,11 +95,7 @@ class NumpyPolicy:
 
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
-        h = (np.asarray(obs, np.float64) - self.mean) / self.std
-        for kernel, bias in self.layers[:-1]:
-            h = np.maximum(h @ kernel + bias, 0.0)
-        kernel, bias = self.layers[-1]
-        return h @ kernel + bias
+        return _mlp(obs, self.mean, self.std, self.layers)
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""

@@ -209,10 +209,12 @@ def select_checkpoint(run_dir: Path, which: str = "best") -> tuple[int, bool]:
     env_steps of a kept checkpoint. Imports JAX."""
     from mjxmimic.runs import checkpoint
 
-    latest = require_checkpoint(run_dir)
     best = checkpoint.latest_checkpoint(run_dir, best=True)
+    if which == "best" and best is not None:  # a folder may hold its best alone (copied back from a GPU)
+        return best, True
+    latest = require_checkpoint(run_dir)
     if which == "best":
-        return (best, True) if best is not None else (latest, False)
+        return latest, False
     if which == "latest":
         return latest, False
     if not which.isdigit():
