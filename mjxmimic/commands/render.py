@@ -72,6 +72,17 @@ def run(args: argparse.Namespace) -> int:
     if args.seconds is not None and args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
     setup_gl()  # before anything imports mujoco, where possible
+    from mjxmimic.portable import composite
+
+    if composite.is_composite(args.source):
+        from mjxmimic.portable.render import render_composite
+
+        info = render_composite(composite.read(args.source), args.out, ghost=args.ghost, start=args.start,
+                                seconds=args.seconds or 8.0, width=args.width, height=args.height, push=push)
+        switches = ", ".join(f"{name} at {t:.1f} s" for t, name in info["experts"])
+        print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s; experts: {switches} "
+              f"(MUJOCO_GL={info['gl']})")
+        return 0
     pf = load_policy_file(args.source, export_if_missing=True, checkpoint=args.checkpoint)
     clip = None
     if args.clip is not None:

@@ -266,10 +266,8 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow.
     `skill_sequence` ("walk:4,run:4", a dataset policy) switches skills as `play` does, until a
     fall or the sequence's end."""
-    from mjxmimic.core.kinematics import ROOT_BODY
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import skills
-    from mjxmimic.task import push_protocol
 
     character = pf.character()
     switches = {}
@@ -294,14 +292,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         for k in range(limit):
             if k > 0 and k in switches:
                 obs = env.switch(switches[k])
-            force, arrows = None, []
-            if push is not None:
-                newtons, at, turn = push
-                active = float(at - 1e-6 <= k * env.control_dt < at + push_protocol.PUSH_S - 1e-6)
-                force = push_protocol.wrench(env.data.qpos, newtons, turn, active, env.model.nbody, np)
-                if active:
-                    head = env.data.xipos[ROOT_BODY].copy()
-                    arrows.append((head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head, PUSH_RGBA))
+            force, arrows = _push_at(env, push, k)
             if env.config.task.name:
                 arrows.append(goal_arrow(env))
             s = env.step(policy(obs), external_force=force)
@@ -325,6 +316,54 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
             "mean_reward": info["reward"] / max(info["steps"], 1), "ghost": ghost,
             "clip": env.clip.name, "start_time": float(start), "skill_sequence": skill_sequence,
             "gl": os.environ.get("MUJOCO_GL")}
+
+
+def _push_at(env: Any, push: tuple[float, float, float] | None, k: int) -> tuple[Any, list]:
+    """(external force or None, arrows to draw) at control step k of a `push` (force N, time s,
+    turn from the facing) on the pelvis for 0.2 s, as the push test does."""
+    from mjxmimic.core.kinematics import ROOT_BODY
+    from mjxmimic.task import push_protocol
+
+    if push is None:
+        return None, []
+    newtons, at, turn = push
+    active = float(at - 1e-6 <= k * env.control_dt < at + push_protocol.PUSH_S - 1e-6)
+    force = push_protocol.wrench(env.data.qpos, newtons, turn, active, env.model.nbody, np)
+    if not active:
+        return force, []
+    head = env.data.xipos[ROOT_BODY].copy()
+    return force, [(head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head, PUSH_RGBA)]
+
+
+def render_composite(comp: Any, out: Path, *, ghost: bool = True, start: float = 0.0, seconds: float = 8.0,
+                     width: int = 640, height: int = 480, push: tuple[float, float, float] | None = None,
+                     seed: int = 0) -> dict[str, Any]:
+    """Video of a composite (mjxmimic.portable.composite) from its first expert's reference state at
+    clip time `start` for `seconds`, the gate choosing the expert at every step (a fall does not end
+    it); the ghost is the playing expert's reference. Returns which expert played when."""
+    from mjxmimic.portable.composite import Gate
+
+    gate = Gate(comp, seed)
+    env = gate.env
+    scene = Scene(comp.experts[0].character_xml, env.character.nq, ghost, width, height)
+    timeline: list[tuple[float, str]] = []
+
+    def frames():
+        gate.reset(0, start)
+        yield scene.frame(env.data.qpos, env.reference(env.time)[0])
+        for k in range(max(1, round(seconds / env.control_dt))):
+            force, arrows = _push_at(env, push, k)
+            _, expert = gate.step(force)
+            if not timeline or timeline[-1][1] != comp.names[expert]:
+                timeline.append((round(k * env.control_dt, 3), comp.names[expert]))
+            yield scene.frame(env.data.qpos, env.reference(env.time)[0], arrows)
+
+    try:
+        n = write_frames(frames(), out, fps=1.0 / env.control_dt)
+    finally:
+        scene.close()
+    return {"out": str(out), "frames": n, "fps": 1.0 / env.control_dt, "seconds": n * env.control_dt,
+            "experts": timeline, "gl": os.environ.get("MUJOCO_GL")}
 
 
 def render_clip(character, clip: Any, out: Path, *, seconds: float | None = None, fps: float = 30.0,
