@@ -57,7 +57,7 @@ class CpuEnv:
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
         self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
-        self.terminations = termination.evaluation_list(env.early_termination)
+        self.terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0,
                                       goal=np.zeros(4, np.float32))
 
