@@ -101,7 +101,7 @@ class TerrainConfig:
     lanes: int = 4  # courses side by side; each env starts on the lane its episode seed picks
     length_m: float = 20.0  # a course's length: reaching it is success
     lane_width_m: float = 3.0
-    depth_m: float = 1.0  # gaps and the ground beside the beam drop to this depth
+    depth_m: float = 2.0  # gaps and the ground beside the beam drop this deep (deeper than a standing root, 0.9 m)
     fall_margin_m: float = 0.3  # the root this far below z = 0 (every walkable top is >= 0) is a fall
     # the heightmap observation: rows along the facing x columns across it, spacing (m), its
     # centre this far ahead of the root; appended after the state and the goal

@@ -56,7 +56,7 @@ def _gaps(rng: np.random.Generator, difficulty: float, length: float, half: floa
         run = rng.uniform(1.0, 2.0)
         boxes.append(_ground(x, x + run, half))
         x += run + (0.2 + 0.8 * difficulty) * rng.uniform(0.8, 1.2)
-    boxes.append(_ground(x, max(x, length) + END_PAD_M, half))
+    boxes.append(_ground(min(x, length), max(x, length) + END_PAD_M, half))
     return boxes
 
 
@@ -69,7 +69,7 @@ def _beam(rng: np.random.Generator, difficulty: float, length: float, half: floa
         boxes.append(_box(x - 0.5 * width, x + 1.0 + 0.5 * width, y - 0.5 * width, y + 0.5 * width, 0.0))
         y = float(np.clip(y + rng.uniform(-1.0, 1.0) * 0.25 * difficulty, -half + width, half - width))
         x += 1.0
-    boxes.append(_ground(x, max(x, length) + END_PAD_M, half))
+    boxes.append(_ground(min(x, length), max(x, length) + END_PAD_M, half))
     return boxes
 
 
@@ -85,7 +85,7 @@ def _stairs(rng: np.random.Generator, difficulty: float, length: float, half: fl
         for k in range(steps):
             boxes.append(_box(x + k * tread, x + span - k * tread, -half, half, rise * (k + 1)))
         x += span + 3 * tread
-    boxes.append(_ground(x, max(x, length) + END_PAD_M, half))
+    boxes.append(_ground(min(x, length), max(x, length) + END_PAD_M, half))
     return boxes
 
 
@@ -102,7 +102,7 @@ def _mixed(rng: np.random.Generator, difficulty: float, length: float, half: flo
         else:
             boxes.append(_box(x, x + run, -half, half, (0.1 + 0.3 * difficulty) * rng.uniform(0.5, 1.0)))
         x += run
-    boxes.append(_ground(x, max(x, length) + END_PAD_M, half))
+    boxes.append(_ground(min(x, length), max(x, length) + END_PAD_M, half))
     return boxes
 
 
@@ -110,7 +110,7 @@ _GENERATORS = {"gaps": _gaps, "beam": _beam, "stairs": _stairs, "mixed": _mixed}
 
 
 def generate(kind: str, seed: int = 0, difficulty: float = 0.5, lanes: int = 4, length: float = 20.0,
-             lane_width: float = 3.0, depth: float = 1.0) -> Terrain:
+             lane_width: float = 3.0, depth: float = 2.0) -> Terrain:
     """`lanes` courses of `kind`, lane l drawn from (seed, l), as one set of boxes."""
     if kind not in _GENERATORS:
         raise UserError(f"config key 'terrain.kind': {kind!r} must be 'none' or one of {', '.join(TERRAINS)}")

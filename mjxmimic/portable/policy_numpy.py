@@ -9,6 +9,10 @@ It is the function Brax's PPO networks compute (mjxmimic.learn.ppo, "Exported pa
     action = tanh(loc)                              NormalTanhDistribution.mode: the deterministic
                                                     (evaluation / playback) action, in [-1, 1]
 
+A terrain policy (mjxmimic.learn.networks) first encodes the heightmap, the observation's last
+rows x cols numbers (normalised like the rest): conv_0..2 (SAME padding, strides
+HEIGHTMAP_STRIDES, relu), flattened, `encoder` (dense, relu), then [state, encoding] into the MLP.
+
 The computation runs in float64 (the parameters are float32 as trained); the test suite checks
 it against the JAX policy to 1e-5.
 """
@@ -22,12 +26,37 @@ from typing import Any
 import numpy as np
 
 _LAYER = re.compile(r"hidden_(\d+)$")
+_ENCODER = ("conv_0", "conv_1", "conv_2", "encoder")
+HEIGHTMAP_STRIDES = (2, 2, 1)  # mjxmimic.learn.networks.CONV_LAYERS (a test checks they agree)
+
+
+def conv_same(x: np.ndarray, kernel: np.ndarray, bias: np.ndarray, stride: int) -> np.ndarray:
+    """Flax's Conv with padding "SAME": x (..., H, W, Cin), kernel (kh, kw, Cin, Cout)."""
+    kh, kw = kernel.shape[:2]
+    pads = []
+    for size, k in ((x.shape[-3], kh), (x.shape[-2], kw)):
+        out = -(-size // stride)
+        total = max((out - 1) * stride + k - size, 0)
+        pads.append((total // 2, total - total // 2))
+    x = np.pad(x, [(0, 0)] * (x.ndim - 3) + pads + [(0, 0)])
+    oh, ow = -(-(x.shape[-3] - pads[0][0] - pads[0][1]) // stride), -(-(x.shape[-2] - pads[1][0] - pads[1][1]) // stride)
+    out = np.zeros(x.shape[:-3] + (oh, ow, kernel.shape[-1]))
+    for i in range(kh):
+        for j in range(kw):
+            patch = x[..., i: i + stride * (oh - 1) + 1: stride, j: j + stride * (ow - 1) + 1: stride, :]
+            out += patch @ kernel[i, j]
+    return out + bias
 
 
 class NumpyPolicy:
     """Deterministic policy from `export_params`-style arrays: normaliser and MLP layers."""
 
-    def __init__(self, mean: Any, std: Any, layers: list[tuple[Any, Any]], action_size: int | None = None):
+    def __init__(self, mean: Any, std: Any, layers: list[tuple[Any, Any]], action_size: int | None = None,
+                 encoder: list[tuple[Any, Any]] | None = None, heightmap_shape: Any = None):
+        """`encoder`: the heightmap encoder's (kernel, bias) of conv_0..2 and encoder, with the
+        heightmap's (rows, cols); none for a plain MLP."""
+        self.encoder = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in encoder or []]
+        self.heightmap_shape = None if not self.encoder else (int(heightmap_shape[0]), int(heightmap_shape[1]))
         if not layers:
             raise ValueError("the policy has no layers")
         self.mean = np.asarray(mean, np.float64)
@@ -39,7 +68,11 @@ class NumpyPolicy:
         self.action_size = out // 2 if action_size is None else int(action_size)
         if 2 * self.action_size != out:
             raise ValueError(f"the last layer has {out} outputs; expected 2 x {self.action_size}")
-        if self.layers[0][0].shape[0] != self.mean.shape[0] or self.std.shape != self.mean.shape:
+        first_in = self.layers[0][0].shape[0]
+        if self.encoder:
+            rows, cols = self.heightmap_shape
+            first_in += rows * cols - self.encoder[-1][1].shape[0]
+        if first_in != self.mean.shape[0] or self.std.shape != self.mean.shape:
             raise ValueError(f"normaliser size {self.mean.shape} does not match the first layer "
                              f"{self.layers[0][0].shape}")
         for (k0, _), (k1, _) in zip(self.layers, self.layers[1:]):
@@ -47,14 +80,21 @@ class NumpyPolicy:
                 raise ValueError(f"layer sizes do not chain: {k0.shape} then {k1.shape}")
 
     @classmethod
-    def from_params(cls, params: Mapping[str, Any]) -> NumpyPolicy:
-        """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}."""
+    def from_params(cls, params: Mapping[str, Any], heightmap_shape: Any = None) -> NumpyPolicy:
+        """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}
+        (and conv_0..2, encoder for a heightmap policy, whose heightmap is rows x cols)."""
         policy = params["policy"]
         names = sorted((int(_LAYER.match(n).group(1)), n) for n in policy if _LAYER.match(n))
-        if [i for i, _ in names] != list(range(len(names))) or len(names) != len(policy):
+        encoder = [n for n in _ENCODER if n in policy]
+        if encoder and (len(encoder) != len(_ENCODER) or heightmap_shape is None):
+            raise ValueError(f"a heightmap policy needs {', '.join(_ENCODER)} and the heightmap shape, got "
+                             f"{sorted(policy)}")
+        if [i for i, _ in names] != list(range(len(names))) or len(names) + len(encoder) != len(policy):
             raise ValueError(f"policy layers must be hidden_0 .. hidden_N, got {sorted(policy)}")
         layers = [(policy[n]["kernel"], policy[n]["bias"]) for _, n in names]
-        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], layers)
+        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], layers,
+                   encoder=[(policy[n]["kernel"], policy[n]["bias"]) for n in encoder],
+                   heightmap_shape=heightmap_shape)
 
     @property
     def observation_size(self) -> int:
@@ -67,10 +107,22 @@ class NumpyPolicy:
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
         h = (np.asarray(obs, np.float64) - self.mean) / self.std
+        if self.encoder:
+            h = self._encode(h)
         for kernel, bias in self.layers[:-1]:
             h = np.maximum(h @ kernel + bias, 0.0)
         kernel, bias = self.layers[-1]
         return h @ kernel + bias
+
+    def _encode(self, z: np.ndarray) -> np.ndarray:
+        """[state, heightmap] -> [state, encoding] (the module docstring)."""
+        rows, cols = self.heightmap_shape
+        h = z[..., -rows * cols:].reshape(z.shape[:-1] + (rows, cols, 1))
+        for (kernel, bias), stride in zip(self.encoder[:-1], HEIGHTMAP_STRIDES):
+            h = np.maximum(conv_same(h, kernel, bias, stride), 0.0)
+        kernel, bias = self.encoder[-1]
+        h = np.maximum(h.reshape(h.shape[:-3] + (-1,)) @ kernel + bias, 0.0)
+        return np.concatenate([z[..., : -rows * cols], h], axis=-1)
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""
