@@ -141,3 +141,37 @@ def test_heightmap_policy_numpy_equals_jax():
     bumped = obs.copy()
     bumped[:, -5] += 3.0
     assert not np.allclose(pol.logits(bumped), pol.logits(obs))
+
+
+@pytest.mark.slow
+def test_cpu_training_on_terrain_exports_and_replays(tmp_path, capsys):
+    """Train (cpu preset, heading task, dense gaps), export, and replay on MuJoCo C: the policy
+    file carries the course and the heightmap encoder."""
+    import json
+
+    from mjxmimic import cli
+
+    run = tmp_path / "run"
+    assert cli.main(["train", "--preset", "cpu", "--terrain", "gaps", "--task", "heading", "--out", str(run),
+                     "--set", "run.total_samples=20000", "--set", "run.eval_every=10000",
+                     "--set", "run.checkpoint_every=10000", "--set", "run.eval_episodes=4"]) == 0
+    assert json.loads((run / "config.json").read_text())["terrain"]["kind"] == "gaps"
+    assert cli.main(["export", str(run)]) == 0
+    capsys.readouterr()
+    assert cli.main(["play", str(run / "policy.npz"), "--episodes", "2", "--json"]) == 0
+    played = json.loads(capsys.readouterr().out)
+    assert 0.0 <= played["nr"] <= 1.0
+
+
+def test_cpu_playback_reports_course_distance_and_success(character):
+    """CPU playback (MuJoCo C, the numpy step) on a course: every episode starts on the pad, the
+    summary has the course distance and success beside NR; a policy-free humanoid falls soon."""
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.portable.playback import evaluate
+
+    config = make_config("cpu", {"terrain.kind": "stairs", "task.name": "heading", "terrain.length_m": "3"})
+    env = CpuEnv(config, character, [load_clip_source("slow_walk", character)])
+    out = evaluate(env, lambda obs: np.zeros(env.action_size), [0.1, 0.5])
+    assert {"nr", "nr_paper", "course_distance_m", "course_success_rate"} <= set(out)
+    assert -0.5 < out["course_distance_m"] < 3.0 and out["course_success_rate"] == 0.0

@@ -99,7 +99,7 @@ class TerrainConfig:
     seed: int = 0  # the courses drawn (lane l from (seed, l)); the same in training and playback
     difficulty: float = 0.5  # in [0, 1]: gap width, beam width and winding, step rise, block height
     lanes: int = 4  # courses side by side; each env starts on the lane its episode seed picks
-    length_m: float = 20.0  # a course's length: reaching it is success
+    length_m: float = 15.0  # a course's length: reaching its end (x = length) is success
     lane_width_m: float = 3.0
     depth_m: float = 2.0  # gaps and the ground beside the beam drop this deep (deeper than a standing root, 0.9 m)
     fall_margin_m: float = 0.3  # the root this far below z = 0 (every walkable top is >= 0) is a fall

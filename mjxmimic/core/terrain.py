@@ -173,3 +173,24 @@ def start_pose(terrain: Terrain, boxes: Any, qpos: Any, qvel: Any, event_seed: A
     # the root's own frame, which turns with the root
     return qpos, xp.concatenate([quat.rotate_yaw(qvel[0:3], turn, xp), qvel[3:]])
 
+
+
+# ---- course metrics of evaluation episodes (issue 16): distance before a fall, success -------
+
+def course_start(start_x: Any, xp: Any) -> dict[str, Any]:
+    """Per episode: the root's x at the start, and the furthest x reached so far."""
+    start_x = xp.asarray(start_x, xp.float32)
+    return {"start_x": start_x, "reach_x": start_x}
+
+
+def course_add(acc: dict[str, Any], active: Any, root_x: Any, xp: Any) -> dict[str, Any]:
+    """Count one control step of the episodes still running without a fall (`active`)."""
+    return {**acc, "reach_x": xp.where(active, xp.maximum(acc["reach_x"], root_x), acc["reach_x"])}
+
+
+def course_summarize(acc: dict[str, Any], length: float) -> dict[str, float]:
+    """Per-episode values (host arrays) -> distance travelled along the course (+x) before a fall
+    or the horizon's end (m), and success = the root reached the course's end (x = length)."""
+    reach = np.asarray(acc["reach_x"], np.float64)
+    return {"course_distance_m": float((reach - np.asarray(acc["start_x"], np.float64)).mean()),
+            "course_success_rate": float((reach >= length).mean())}

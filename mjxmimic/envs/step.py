@@ -181,14 +181,21 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     """(state, motion, obs): the reference state of `clip` at time t (RSI)."""
     xp = physics.xp
     t = xp.asarray(t, dtype=xp.float32)
-    qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
     event_seed = xp.asarray(event_seed, xp.float32)
-    if spec.terrain is not None:
-        qpos, qvel = terrain_lib.start_pose(spec.terrain, spec.terrain.boxes, qpos, qvel, event_seed, xp)
+    qpos, qvel = start_state(spec, clip, t, event_seed, xp)
     state = physics.init(qpos, qvel)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
                     event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp))
     return state, motion, observe(spec, physics, physics.kinematics(qpos, qvel), motion)
+
+
+def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tuple[Any, Any]:
+    """RSI's (qpos, qvel): the reference at time t, on a terrain placed on the start pad of the
+    lane that the event seed picks (mjxmimic.core.terrain.start_pose)."""
+    qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
+    if spec.terrain is not None:
+        qpos, qvel = terrain_lib.start_pose(spec.terrain, spec.terrain.boxes, qpos, qvel, event_seed, xp)
+    return qpos, qvel
 
 
 def initial_goal(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
