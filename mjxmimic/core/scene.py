@@ -38,9 +38,11 @@ def _touches_floor(model: mujoco.MjModel, g: int, floor: int) -> bool:
         or (model.geom_contype[floor] & model.geom_conaffinity[g]))
 
 
-def _add_terrain(spec: mujoco.MjSpec, floor: int, terrain: Terrain) -> None:
-    """The terrain's boxes as world geoms, each from the pit floor up to its top."""
-    spec.geoms[floor].pos = [0.0, 0.0, -terrain.depth]
+def add_terrain(spec: mujoco.MjSpec, terrain: Terrain) -> None:
+    """The terrain's boxes as world geoms, each from the pit floor up to its top (the physics
+    scene's and the renderer's)."""
+    floor = spec.geom(FLOOR)
+    floor.pos = [0.0, 0.0, -terrain.depth]
     for i, (cx, cy, hx, hy, top) in enumerate(np.asarray(terrain.boxes, np.float64)):
         geom = spec.worldbody.add_geom()
         geom.name = f"_terrain{i}"
@@ -48,7 +50,7 @@ def _add_terrain(spec: mujoco.MjSpec, floor: int, terrain: Terrain) -> None:
         geom.size = [hx, hy, 0.5 * (top + terrain.depth)]
         geom.pos = [cx, cy, 0.5 * (top - terrain.depth)]
         geom.contype, geom.conaffinity = 0, 1
-        geom.friction = spec.geoms[floor].friction
+        geom.friction = floor.friction
         geom.rgba = [0.55, 0.5, 0.45, 1.0] if i % 2 else [0.6, 0.56, 0.5, 1.0]
 
 
@@ -63,7 +65,7 @@ def build_scene(character: Character, physics_hz: int, solver_iterations: int, l
         raise ValueError(f"{character.xml_path}: no geom named {FLOOR!r}")
     watched = [g for g in range(base.ngeom) if _touches_floor(base, g, floor)]
     if terrain is not None:
-        _add_terrain(spec, floor, terrain)
+        add_terrain(spec, terrain)
     for g in watched:
         geom = spec.geoms[g]
         if not geom.name:
