@@ -175,3 +175,21 @@ def test_cpu_playback_reports_course_distance_and_success(character):
     out = evaluate(env, lambda obs: np.zeros(env.action_size), [0.1, 0.5])
     assert {"nr", "nr_paper", "course_distance_m", "course_success_rate"} <= set(out)
     assert -0.5 < out["course_distance_m"] < 3.0 and out["course_success_rate"] == 0.0
+
+
+def test_graded_reference_stands_on_the_step_under_the_character(character):
+    from mjxmimic.envs import step as step_lib
+    from mjxmimic.motion import library as motion_lib
+    from mjxmimic.motion.clip import load_clip_source
+
+    config = make_config("cpu", {"terrain.kind": "stairs", "task.name": "heading", "terrain.difficulty": "1.0"})
+    _, spec = step_lib.build(config, character, [load_clip_source("slow_walk", character)], np)
+    ref_qpos, ref_qvel = motion_lib.sample(spec.lib, 0, np.float32(0.3), np)
+    sim = ref_qpos.copy()
+    xs = np.linspace(0, 6, 601)
+    line = T.height(spec.terrain.boxes, spec.terrain.depth, np.stack([xs, np.zeros_like(xs)], -1), np)
+    top_x = xs[np.argmax(line)]
+    for x, lift in ((-1.0, 0.0), (top_x, line.max())):
+        sim[0:2] = [x, 0.0]
+        graded, _ = step_lib.graded_reference(spec, ref_qpos, ref_qvel, sim, np.zeros(2), np)
+        assert graded[2] == pytest.approx(ref_qpos[2] + lift, abs=1e-5) and graded[0] == pytest.approx(x)

@@ -230,10 +230,16 @@ def max_eval_horizon(spec: Spec) -> int:
 def graded_reference(spec: Spec, ref_qpos: Any, ref_qvel: Any, sim_qpos: Any, root_offset: Any,
                      xp: Any) -> tuple[Any, Any]:
     """The reference pose that the reward grades: its root moved by the root offset, or, under a
-    task, turned and moved to the character (mjxmimic.task.goals.align_reference)."""
+    task, turned and moved to the character (mjxmimic.task.goals.align_reference); on a terrain
+    lifted by the height of the ground under the character (0 over a gap)."""
     if spec.config.task.name:
-        return goals.align_reference(ref_qpos, ref_qvel, sim_qpos, xp)
-    return motion_lib.shift_root(ref_qpos, root_offset, xp), ref_qvel
+        ref_qpos, ref_qvel = goals.align_reference(ref_qpos, ref_qvel, sim_qpos, xp)
+    else:
+        ref_qpos = motion_lib.shift_root(ref_qpos, root_offset, xp)
+    if spec.terrain is not None:  # on a step, the reference stands on it too (never sunk into a gap)
+        lift = xp.maximum(terrain_lib.height(spec.terrain.boxes, spec.terrain.depth, sim_qpos[0:2], xp), 0.0)
+        ref_qpos = xp.concatenate([ref_qpos[0:2], ref_qpos[2:3] + lift, ref_qpos[3:]])
+    return ref_qpos, ref_qvel
 
 
 def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: Any) -> Any:
