@@ -157,7 +157,7 @@ def heightmap(boxes: Any, depth: float, offsets: Any, root_pos: Any, yaw: Any, x
     return (height(boxes, depth, world, xp) - root_pos[2]).astype(xp.float32)
 
 
-def start_pose(terrain: Terrain, boxes: Any, qpos: Any, qvel: Any, event_seed: Any, xp: Any) -> tuple[Any, Any]:
+def start_pose(terrain: Terrain, qpos: Any, qvel: Any, event_seed: Any, xp: Any) -> tuple[Any, Any]:
     """The reference state placed on the course: turned to face +x, its root moved to the start
     pad of the lane that the event seed picks (x uniform in [0.5 - pad, -0.5]) and lifted by the
     terrain height there (0 on the pad)."""
@@ -165,7 +165,7 @@ def start_pose(terrain: Terrain, boxes: Any, qpos: Any, qvel: Any, event_seed: A
     u = (event_seed * terrain.lanes) % 1.0
     x = -START_PAD_M + 0.5 + u * (START_PAD_M - 1.0)
     y = lane * terrain.lane_width
-    lift = height(boxes, terrain.depth, xp.stack([x, y]), xp)
+    lift = height(terrain.boxes, terrain.depth, xp.stack([x, y]), xp)
     turn = -quat.heading(qpos[3:7], xp)
     root = xp.stack([x, y, qpos[2] + lift]).astype(qpos.dtype)
     qpos = xp.concatenate([root, quat.mul(quat.from_yaw(turn, xp), qpos[3:7], xp), qpos[7:]])

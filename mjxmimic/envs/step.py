@@ -194,7 +194,7 @@ def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tupl
     lane that the event seed picks (mjxmimic.core.terrain.start_pose)."""
     qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
     if spec.terrain is not None:
-        qpos, qvel = terrain_lib.start_pose(spec.terrain, spec.terrain.boxes, qpos, qvel, event_seed, xp)
+        qpos, qvel = terrain_lib.start_pose(spec.terrain, qpos, qvel, event_seed, xp)
     return qpos, qvel
 
 
