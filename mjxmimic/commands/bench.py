@@ -16,6 +16,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip", default=None, help="clip NAME or PATH (default: the preset's clip)")
     parser.add_argument("--character", default=None, metavar="NAME|PATH",
                         help="the simulated character: humanoid (default), dog3d, g1, or an MJCF file")
+    parser.add_argument("--terrain", default=None, choices=config_lib.TERRAINS,
+                        help="bench on a terrain course (terrain.kind) instead of the flat floor")
     parser.add_argument("--num-envs", type=int, nargs="+", default=None,
                         help="env counts (default: 4096 8192 16384 65536 for gpu, 32 128 for cpu)")
     parser.add_argument("--kinds", nargs="+", default=["physics_only", "env_step", "train_loop"],
@@ -37,6 +39,8 @@ def run(args: argparse.Namespace) -> int:
         overrides["clip.name"] = args.clip
     if args.character:
         overrides["character.xml"] = args.character
+    if args.terrain is not None:
+        overrides["terrain.kind"] = args.terrain
     base = config_lib.make_config(args.preset, overrides)
     counts = args.num_envs or ([4096, 8192, 16384, 65536] if args.preset == "gpu" else [32, 128])
     character, clips, weights = load_env_inputs(base)

@@ -29,6 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--task", choices=config_lib.TASKS,
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
                              "direction at a commanded speed; strike = hit a target (the spinkick)")
+    parser.add_argument("--terrain", choices=config_lib.TERRAINS,
+                        help="a course to cross (terrain.kind; mjxmimic.core.terrain), seen through a heightmap; "
+                             "--set terrain.seed=N, terrain.difficulty=0..1")
     parser.add_argument("--preset", default=None, choices=sorted(config_lib.PRESETS),
                         help="config preset (default: gpu where JAX sees a GPU, else cpu)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
@@ -60,7 +63,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
     if getattr(args, "wandb", None):
         overrides["run.wandb_project"] = args.wandb
     if args.resume is not None:
-        for flag in ("clip", "character", "preset", "out", "name"):
+        for flag in ("clip", "character", "terrain", "preset", "out", "name"):
             if getattr(args, flag) is not None:
                 raise UserError(f"--{flag} cannot be combined with --resume (the run's config.json decides)")
         run_dir = folder.require(args.resume)
@@ -79,6 +82,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         overrides["clip.name"] = args.clip
     if args.task is not None:
         overrides["task.name"] = args.task
+    if args.terrain is not None:
+        overrides["terrain.kind"] = args.terrain
     if args.character is not None:
         overrides["character.xml"] = args.character
     if args.seed is not None:

@@ -93,6 +93,24 @@ class TaskConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class TerrainConfig:
+    # "none" (flat floor), or a course kind of mjxmimic.core.terrain: gaps, beam, stairs, mixed
+    kind: str = "none"
+    seed: int = 0  # the courses drawn (lane l from (seed, l)); the same in training and playback
+    difficulty: float = 0.5  # in [0, 1]: gap width, beam width and winding, step rise, block height
+    lanes: int = 4  # courses side by side; each env starts on the lane its episode seed picks
+    length_m: float = 15.0  # a course's length: reaching its end (x = length) is success
+    lane_width_m: float = 3.0
+    depth_m: float = 2.0  # gaps and the ground beside the beam drop this deep (deeper than a standing root, 0.9 m)
+    fall_margin_m: float = 0.3  # the root this far below z = 0 (every walkable top is >= 0) is a fall
+    # the heightmap observation: rows along the facing x columns across it, spacing (m), its
+    # centre this far ahead of the root; appended after the state and the goal
+    heightmap_shape: tuple[int, ...] = (16, 16)
+    heightmap_spacing_m: float = 0.1
+    heightmap_forward_m: float = 0.5
+
+
+@dataclasses.dataclass(frozen=True)
 class PPOConfig:
     num_envs: int = 8192
     unroll_length: int = 16
@@ -147,6 +165,7 @@ class Config:
     physics: PhysicsConfig = PhysicsConfig()
     reward: RewardConfig = RewardConfig()
     task: TaskConfig = TaskConfig()
+    terrain: TerrainConfig = TerrainConfig()
     ppo: PPOConfig = PPOConfig()
     run: RunConfig = RunConfig()
 
@@ -155,6 +174,7 @@ LR_SCHEDULES = ("constant", "linear", "cosine")
 STD_MODES = ("learned", "fixed")
 MATMUL_PRECISIONS = ("default", "BF16_BF16_F32", "TF32_TF32_F32", "F32_F32_F32")
 TASKS = ("heading", "strike")  # mjxmimic.task.goals
+TERRAINS = ("gaps", "beam", "stairs", "mixed")  # mjxmimic.core.terrain
 
 PRESETS: dict[str, dict[str, Any]] = {
     # Small enough that 2 CPU cores show learning within three minutes (measured on the default
@@ -304,6 +324,15 @@ def validate(config: Config) -> None:
          "task weights must be >= 0"),
         (config.task.speed >= 0, "task.speed", "must be >= 0 (0: the clip's own speed)"),
         (config.task.resample_s > 0, "task.resample_s", "must be positive"),
+        (config.terrain.kind in ("none",) + TERRAINS, "terrain.kind",
+         f"must be 'none' or one of {', '.join(TERRAINS)}"),
+        (0 <= config.terrain.difficulty <= 1, "terrain.difficulty", "must be in [0, 1]"),
+        (config.terrain.lanes >= 1, "terrain.lanes", "must be at least 1"),
+        (config.terrain.length_m > 0 and config.terrain.depth_m > 0 and config.terrain.lane_width_m > 0,
+         "terrain.length_m", "length, lane width and depth must be positive"),
+        (len(config.terrain.heightmap_shape) == 2 and min(config.terrain.heightmap_shape) >= 1,
+         "terrain.heightmap_shape", "must be two positive sizes, rows,cols (e.g. 16,16)"),
+        (config.terrain.heightmap_spacing_m > 0, "terrain.heightmap_spacing_m", "must be positive"),
         (config.physics.backend in ("auto", "warp", "jax"), "physics.backend", "must be 'auto', 'warp' or 'jax'"),
         (config.physics.contacts_per_world >= 1, "physics.contacts_per_world", "must be at least 1"),
         (config.physics.constraints_per_world >= 1, "physics.constraints_per_world", "must be at least 1"),

@@ -5,6 +5,11 @@ Fall detection reads those sensors ("found": how many contacts the geom has with
 works the same on MJX-JAX, MJX-Warp and MuJoCo C, none of which expose their contact lists alike.
 Which geoms count as a fall is a mask over the sensors (`fall_mask`), chosen per clip at run time,
 so one compiled model serves clips with different fall-contact sets.
+
+With a terrain (mjxmimic.core.terrain), its boxes are static world geoms that collide as the
+floor does (contype 0, conaffinity 1), the floor plane drops to the pit floor, and each sensor
+counts every contact of its geom (no second geom named: MJX-JAX matches contact sensors by geom
+only, and the character's geoms touch nothing but the world), so a chest on a step is a fall too.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import mujoco
 import numpy as np
 
 from mjxmimic.core.character import Character
+from mjxmimic.core.terrain import Terrain
 
 FLOOR = "floor"
 
@@ -32,14 +38,34 @@ def _touches_floor(model: mujoco.MjModel, g: int, floor: int) -> bool:
         or (model.geom_contype[floor] & model.geom_conaffinity[g]))
 
 
-def build_scene(character: Character, physics_hz: int, solver_iterations: int, ls_iterations: int) -> Scene:
-    """The character's model with contact sensors, at the given physics rate and solver settings."""
+def add_terrain(spec: mujoco.MjSpec, terrain: Terrain) -> None:
+    """The terrain's boxes as world geoms, each from the pit floor up to its top (the physics
+    scene's and the renderer's)."""
+    floor = spec.geom(FLOOR)
+    floor.pos = [0.0, 0.0, -terrain.depth]
+    for i, (cx, cy, hx, hy, top) in enumerate(np.asarray(terrain.boxes, np.float64)):
+        geom = spec.worldbody.add_geom()
+        geom.name = f"_terrain{i}"
+        geom.type = mujoco.mjtGeom.mjGEOM_BOX
+        geom.size = [hx, hy, 0.5 * (top + terrain.depth)]
+        geom.pos = [cx, cy, 0.5 * (top - terrain.depth)]
+        geom.contype, geom.conaffinity = 0, 1
+        geom.friction = floor.friction
+        geom.rgba = [0.55, 0.5, 0.45, 1.0] if i % 2 else [0.6, 0.56, 0.5, 1.0]
+
+
+def build_scene(character: Character, physics_hz: int, solver_iterations: int, ls_iterations: int,
+                terrain: Terrain | None = None) -> Scene:
+    """The character's model with contact sensors, at the given physics rate and solver settings,
+    on a terrain's course if one is given."""
     spec = mujoco.MjSpec.from_file(str(character.xml_path))
     base = character.model
     floor = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_GEOM, FLOOR)
     if floor < 0:
         raise ValueError(f"{character.xml_path}: no geom named {FLOOR!r}")
     watched = [g for g in range(base.ngeom) if _touches_floor(base, g, floor)]
+    if terrain is not None:
+        add_terrain(spec, terrain)
     for g in watched:
         geom = spec.geoms[g]
         if not geom.name:
@@ -49,8 +75,9 @@ def build_scene(character: Character, physics_hz: int, solver_iterations: int, l
         sensor.type = mujoco.mjtSensor.mjSENS_CONTACT
         sensor.objtype = mujoco.mjtObj.mjOBJ_GEOM
         sensor.objname = geom.name
-        sensor.reftype = mujoco.mjtObj.mjOBJ_GEOM
-        sensor.refname = FLOOR
+        if terrain is None:
+            sensor.reftype = mujoco.mjtObj.mjOBJ_GEOM
+            sensor.refname = FLOOR
         sensor.intprm[0] = 1  # data: "found" only
         sensor.intprm[1] = 0  # no reduction
         sensor.intprm[2] = 1  # one slot

@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mjxmimic.core.character import Character
+from mjxmimic.core import terrain as terrain_lib
 from mjxmimic.core.config import Config
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
@@ -57,7 +58,7 @@ class CpuEnv:
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
         self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
-        self.terminations = termination.evaluation_list(env.early_termination)
+        self.terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0,
                                       goal=np.zeros(4, np.float32))
 
@@ -84,7 +85,7 @@ class CpuEnv:
     def reset_at(self, t: float, event_seed: float = 0.0, clip: int = 0) -> np.ndarray:
         """The reference state at time t of clip number `clip` (RSI); returns the observation.
         `event_seed` in [0, 1) varies the episode's events and goals."""
-        qpos, qvel = motion_lib.sample(self.spec.lib, clip, np.float32(t), np)
+        qpos, qvel = step_lib.start_state(self.spec, clip, np.float32(t), np.float32(event_seed), np)
         return self.set_state(qpos, qvel, t, event_seed=event_seed, clip=clip)
 
     def same_phase_time(self, clip: int) -> float:
@@ -139,11 +140,14 @@ class CpuEnv:
         horizon = self.eval_horizon(t0, clip)
         acc = nr_rule.start((), np)
         task_acc = goals.metrics_start(self.config.task.name, (), np) if self.config.task.name else None
+        course = None if self.spec.terrain is None else terrain_lib.course_start(self.data.qpos[0], np)
         for k in range(horizon):
             s = self.step(policy(obs), grade_paper=True)
             m = s.metrics
             if task_acc is not None:
                 task_acc = goals.metrics_add(task_acc, True, m, np)
+            if course is not None:
+                course = terrain_lib.course_add(course, not s.failed, m["terrain/x"], np)
             acc = nr_rule.add_step(acc, k, horizon, m["reward/imitation"], m["reward_paper"], s.failed, s.clip_end,
                                    m["error/pose"], m["error/end_effector"], np)
             if (on_step is not None and on_step(self, s) is False) or not acc["alive"]:
@@ -153,4 +157,6 @@ class CpuEnv:
         out.update(start_time=float(t0), horizon=horizon, nr=out["reward"] / horizon)
         if task_acc is not None:
             out["task"] = {k: float(v) for k, v in task_acc.items()}
+        if course is not None:
+            out["course"] = {k: float(v) for k, v in course.items()}
         return out

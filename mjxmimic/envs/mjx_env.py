@@ -48,8 +48,9 @@ class ImitationEnv(Env):
         self.control_dt = self.spec.control_dt
         self.max_steps = self.spec.max_steps
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
-        self.train_terminations = termination.training_list(env.pose_termination_m, env.early_termination)
-        self.eval_terminations = termination.evaluation_list(env.early_termination)
+        self.train_terminations = termination.training_list(env.pose_termination_m, env.early_termination,
+                                                             config.terrain.kind != "none")
+        self.eval_terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.clip_durations = self.spec.lib.duration
         self.clip_duration = float(self.spec.lib.duration[0])
 
@@ -97,6 +98,8 @@ class ImitationEnv(Env):
         keys += list(goals.METRICS[self.config.task.name])
         if self.config.reward.combine == "max":
             keys.append("reward/own_clip")
+        if self.spec.terrain is not None:
+            keys.append("terrain/x")
         return keys + [f"reward/{t.name}" for t in self.spec.rewards]
 
     def step(self, state: State, action: jax.Array) -> State:

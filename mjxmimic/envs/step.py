@@ -20,6 +20,8 @@ from mjxmimic.core.character import Character, default_fall_contact
 from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.layout import Layout, make_layout
+from mjxmimic.core import terrain as terrain_lib
+from mjxmimic.core.kinematics import ROOT_BODY, root_yaw
 from mjxmimic.core.scene import Scene, build_scene, fall_mask, sensor_geoms
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
@@ -59,6 +61,8 @@ class Spec(NamedTuple):
     action_size: int
     task_body: int  # the strike task's striking body (-1 without one)
     config: Config
+    terrain: Any = None  # mjxmimic.core.terrain.Terrain, its boxes in xp; None on the flat floor
+    heightmap_offsets: Any = None  # (rows * cols, 2) the heightmap's grid in the heading frame
 
 
 class Result(NamedTuple):
@@ -81,7 +85,8 @@ def fall_contact_spec(config: Config, clip_name: str) -> str:
 def build(config: Config, character: Character, clips: list[Any], xp: Any, weights: Any = None) -> tuple[Scene, Spec]:
     """The physics scene and the step's static data for `clips`, arrays converted with `xp.asarray`."""
     env = config.env
-    scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations)
+    scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations,
+                        terrain_lib.from_config(config.terrain))
     return scene, make_spec(config, character, scene, clips, xp, weights)
 
 
@@ -97,7 +102,9 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
     lib = motion_lib.build_motion_lib(clips, character, weights)
     if xp is not np:
         lib = lib._replace(**{k: xp.asarray(v) for k, v in lib._asdict().items() if k != "layout"})
-    env = config.env
+    env, terrain = config.env, terrain_lib.from_config(config.terrain)
+    if terrain is not None:
+        terrain = terrain._replace(boxes=xp.asarray(terrain.boxes))
     return Spec(
         layout=make_layout(character),
         lib=lib,
@@ -114,12 +121,22 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         action_size=character.action_size,
         task_body=_task_body(config, scene),
         config=config,
+        terrain=terrain,
+        heightmap_offsets=None if terrain is None else xp.asarray(heightmap_grid(config)),
     )
 
 
+def heightmap_grid(config: Config) -> np.ndarray:
+    t = config.terrain
+    return terrain_lib.grid_offsets(*t.heightmap_shape, t.heightmap_spacing_m, t.heightmap_forward_m)
+
+
 def observation_size(config: Config, nbody: int, nclips: int = 1) -> int:
-    """The observation terms' numbers, then the task's goal."""
-    return obs_terms.observation_size(nbody, config.env.observations, nclips) + goals.GOAL_SIZE[config.task.name]
+    """The observation terms' numbers, then the task's goal, then a terrain's heightmap."""
+    rows, cols = config.terrain.heightmap_shape
+    heightmap = 0 if config.terrain.kind == "none" else rows * cols
+    return (obs_terms.observation_size(nbody, config.env.observations, nclips) + goals.GOAL_SIZE[config.task.name]
+            + heightmap)
 
 
 def _task_body(config: Config, scene: Scene) -> int:
@@ -134,9 +151,11 @@ def _task_body(config: Config, scene: Scene) -> int:
 
 
 def goal(spec: Spec, motion: Motion, xp: Any) -> tuple[Any, Any]:
-    """The heading task's goal in force for the coming step: (direction yaw, speed)."""
-    return goals.heading_goal(spec.config.task, spec.lib, motion.clip, motion.steps * spec.control_dt,
-                              motion.event_seed, xp)
+    """The heading task's goal in force for the coming step: (direction yaw, speed); along the
+    course (+x) on a terrain."""
+    yaw, speed = goals.heading_goal(spec.config.task, spec.lib, motion.clip, motion.steps * spec.control_dt,
+                                    motion.event_seed, xp)
+    return (yaw if spec.terrain is None else xp.zeros_like(yaw)), speed
 
 
 def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
@@ -149,9 +168,12 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
                             onehot)
     task = spec.config.task.name
     if task == "heading":
-        return xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
-    if task == "strike":
-        return xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp)])
+        obs = xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
+    elif task == "strike":
+        obs = xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp)])
+    if spec.terrain is not None:
+        obs = xp.concatenate([obs, terrain_lib.heightmap(spec.terrain.boxes, spec.terrain.depth, spec.heightmap_offsets,
+                                                         kin.xipos[ROOT_BODY], root_yaw(kin, xp), xp)])
     return obs
 
 
@@ -159,12 +181,21 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     """(state, motion, obs): the reference state of `clip` at time t (RSI)."""
     xp = physics.xp
     t = xp.asarray(t, dtype=xp.float32)
-    qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
-    state = physics.init(qpos, qvel)
     event_seed = xp.asarray(event_seed, xp.float32)
+    qpos, qvel = start_state(spec, clip, t, event_seed, xp)
+    state = physics.init(qpos, qvel)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
                     event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp))
     return state, motion, observe(spec, physics, physics.kinematics(qpos, qvel), motion)
+
+
+def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tuple[Any, Any]:
+    """RSI's (qpos, qvel): the reference at time t, on a terrain placed on the start pad of the
+    lane that the event seed picks (mjxmimic.core.terrain.start_pose)."""
+    qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
+    if spec.terrain is not None:
+        qpos, qvel = terrain_lib.start_pose(spec.terrain, qpos, qvel, event_seed, xp)
+    return qpos, qvel
 
 
 def initial_goal(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
@@ -199,10 +230,16 @@ def max_eval_horizon(spec: Spec) -> int:
 def graded_reference(spec: Spec, ref_qpos: Any, ref_qvel: Any, sim_qpos: Any, root_offset: Any,
                      xp: Any) -> tuple[Any, Any]:
     """The reference pose that the reward grades: its root moved by the root offset, or, under a
-    task, turned and moved to the character (mjxmimic.task.goals.align_reference)."""
+    task, turned and moved to the character (mjxmimic.task.goals.align_reference); on a terrain
+    lifted by the height of the ground under the character (0 over a gap)."""
     if spec.config.task.name:
-        return goals.align_reference(ref_qpos, ref_qvel, sim_qpos, xp)
-    return motion_lib.shift_root(ref_qpos, root_offset, xp), ref_qvel
+        ref_qpos, ref_qvel = goals.align_reference(ref_qpos, ref_qvel, sim_qpos, xp)
+    else:
+        ref_qpos = motion_lib.shift_root(ref_qpos, root_offset, xp)
+    if spec.terrain is not None:  # on a step, the reference stands on it too (never sunk into a gap)
+        lift = xp.maximum(terrain_lib.height(spec.terrain.boxes, spec.terrain.depth, sim_qpos[0:2], xp), 0.0)
+        ref_qpos = xp.concatenate([ref_qpos[0:2], ref_qpos[2:3] + lift, ref_qpos[3:]])
+    return ref_qpos, ref_qvel
 
 
 def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: Any) -> Any:
@@ -264,7 +301,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     outcome = termination.Outcome(sim=sim, ref=ref, contacts=sub.contacts, fall_mask=spec.fall_masks[clip],
                                   reference_geoms=spec.reference_geoms,
                                   diverged=sub.diverged, max_joint_velocity=env.max_joint_velocity,
-                                  pose_termination_m=env.pose_termination_m)
+                                  pose_termination_m=env.pose_termination_m,
+                                  pit_z=-spec.config.terrain.fall_margin_m if spec.terrain is not None else None)
     fired = {name: termination.TERMS[name](outcome, xp) for name in terminations}
     bad = fired.get("bad_state", xp.zeros((), bool))
     failed = xp.zeros((), bool)
@@ -284,9 +322,12 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     if grade_paper:
         paper, _ = reward_terms.reward(spec.paper_rewards, spec.layout, sim, ref, xp)
         metrics["reward_paper"] = xp.where(failed, 0.0, xp.nan_to_num(paper))
-    metrics.update({"reward": r, "fell": fired.get("fall", xp.zeros((), bool)).astype(xp.float32),
+    metrics.update({"reward": r, "fell": (fired.get("fall", xp.zeros((), bool))
+                                                       | fired.get("pit", xp.zeros((), bool))).astype(xp.float32),
                     "lost_track": fired.get("pose_deviation", xp.zeros((), bool)).astype(xp.float32),
                     "physics/reset_nan": bad.astype(xp.float32)})
+    if spec.terrain is not None:
+        metrics["terrain/x"] = qpos[0]
     truncation = (timeout & ~failed & ~clip_end) | bad
     return Result(state=sub.state, motion=motion, obs=obs, reward=r, done=done, failed=failed,
                   truncation=truncation, clip_end=clip_end, metrics=metrics)

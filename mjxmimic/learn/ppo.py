@@ -123,10 +123,15 @@ def _softplus_inverse(y: float) -> float:
     return float(np.log(np.expm1(y)))
 
 
+def _last_layer(layers: dict) -> str:
+    """The output layer's name: the last hidden_i (a heightmap policy also has conv and encoder layers)."""
+    return f"hidden_{sum(name.startswith('hidden_') for name in layers) - 1}"
+
+
 def _init_output_layer(policy_params: dict, action_size: int, init_std: float) -> dict:
     """Set the initial std exactly and shrink the initial mean (see the module docstring)."""
     layers = policy_params["params"]
-    last = f"hidden_{len(layers) - 1}"
+    last = _last_layer(layers)
     kernel, bias = layers[last]["kernel"], layers[last]["bias"]
     kernel = jnp.concatenate([kernel[:, :action_size] * 0.01, jnp.zeros_like(kernel[:, action_size:])], axis=1)
     bias = jnp.concatenate([jnp.zeros_like(bias[:action_size]),
@@ -153,7 +158,7 @@ def _std_half_frozen(action_size: int) -> optax.GradientTransformation:
 
     def freeze(updates, params=None):
         layers = updates.policy["params"]
-        last = f"hidden_{len(layers) - 1}"
+        last = _last_layer(layers)
         kernel, bias = layers[last]["kernel"], layers[last]["bias"]
         frozen = {"kernel": kernel.at[:, action_size:].set(0.0), "bias": bias.at[action_size:].set(0.0)}
         policy = {**updates.policy, "params": {**layers, last: frozen}}
@@ -378,6 +383,12 @@ def make_policy_fn(networks: ppo_networks.PPONetworks, params: dict, determinist
 
 
 def make_networks(observation_size: int, action_size: int, config: Config) -> ppo_networks.PPONetworks:
+    if config.terrain.kind != "none":  # the heightmap encoder (mjxmimic.learn.networks)
+        from mjxmimic.learn.networks import make_heightmap_networks
+
+        return make_heightmap_networks(observation_size, action_size, config.ppo.policy_hidden,
+                                       config.ppo.value_hidden, config.terrain.heightmap_shape,
+                                       running_statistics.normalize)
     return ppo_networks.make_ppo_networks(
         observation_size, action_size,
         preprocess_observations_fn=running_statistics.normalize,

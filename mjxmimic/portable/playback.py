@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from mjxmimic.core.terrain import course_summarize
 from mjxmimic.envs.cpu_env import CpuEnv, Step
 from mjxmimic.task import goals
 from mjxmimic.task import nr as nr_rule
@@ -41,6 +42,9 @@ def evaluate(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], starts: An
         task = {k: np.array([e["task"][k] for e in episodes]) for k in episodes[0]["task"]}
         out.update(goals.metrics_summarize(env.config.task.name, task, np.array([e["horizon"] for e in episodes]),
                                            np.array([e["failed"] for e in episodes])))
+    if episodes and "course" in episodes[0]:
+        course = {k: np.array([e["course"][k] for e in episodes]) for k in episodes[0]["course"]}
+        out.update(course_summarize(course, env.config.terrain.length_m))
     steps = int(sum(e["steps"] for e in episodes))
     out.update(control_steps=steps, eval_seconds=wall, steps_per_s=steps / wall if wall > 0 else None,
                start_times=[e["start_time"] for e in episodes],

@@ -93,7 +93,7 @@ class PolicyFile:
 
     def policy(self) -> NumpyPolicy:
         """The deterministic policy as a numpy function."""
-        return NumpyPolicy.from_params(self.params)
+        return NumpyPolicy.from_params(self.params, _heightmap_shape(self.config()))
 
     def config(self) -> config_lib.Config:
         """The run's config (playback rebuilds its environment settings from it)."""
@@ -185,6 +185,11 @@ def observation_layout(character: Character, config: config_lib.Config | None = 
     task = config.task.name if config is not None else ""
     if goals.GOAL_SIZE[task]:
         out.append({"name": "goal", "size": goals.GOAL_SIZE[task], "about": f"the {task} task's goal (mjxmimic.task.goals)"})
+    shape = _heightmap_shape(config) if config is not None else None
+    if shape is not None:
+        out.append({"name": "heightmap", "size": shape[0] * shape[1],
+                    "about": f"terrain heights minus the root's on a {shape[0]} x {shape[1]} grid in the heading frame "
+                             "(mjxmimic.core.terrain.heightmap), rows along the facing"})
     return out
 
 
@@ -207,12 +212,17 @@ def _clip_entry(clip: Any) -> dict[str, Any]:
             "duration_s": clip.duration}
 
 
+def _heightmap_shape(config: config_lib.Config) -> tuple[int, ...] | None:
+    """A terrain policy's heightmap (rows, cols): the last observation numbers, which its encoder reads."""
+    return None if config.terrain.kind == "none" else tuple(config.terrain.heightmap_shape)
+
+
 def build_manifest(config: config_lib.Config, character: Character, character_xml: str, clip: Any,
                    params: dict[str, Any], training: dict[str, Any] | None = None,
                    dataset: dict[str, Any] | None = None) -> dict[str, Any]:
     """The manifest (module docstring); checks that the policy's sizes fit the character."""
     env = config.env
-    policy = NumpyPolicy.from_params(params)
+    policy = NumpyPolicy.from_params(params, _heightmap_shape(config))
     clip_names = [c["name"] for c in dataset["clips"]] if dataset is not None else [clip.name]
     obs_layout = observation_layout(character, config, clip_names)
     obs_size = sum(p["size"] for p in obs_layout)

@@ -9,6 +9,10 @@ It is the function Brax's PPO networks compute (mjxmimic.learn.ppo, "Exported pa
     action = tanh(loc)                              NormalTanhDistribution.mode: the deterministic
                                                     (evaluation / playback) action, in [-1, 1]
 
+A terrain policy (mjxmimic.learn.networks) first encodes the heightmap, the observation's last
+rows x cols numbers (normalised like the rest): conv_0..2 (SAME padding, strides
+HEIGHTMAP_STRIDES, relu), flattened, `encoder` (dense, relu), then [state, encoding] into the MLP.
+
 The computation runs in float64 (the parameters are float32 as trained); the test suite checks
 it against the JAX policy to 1e-5.
 """
@@ -22,18 +26,39 @@ from typing import Any
 import numpy as np
 
 _LAYER = re.compile(r"hidden_(\d+)$")
+_ENCODER = ("conv_0", "conv_1", "conv_2", "encoder")
+HEIGHTMAP_STRIDES = (2, 2, 1)  # mjxmimic.learn.networks.CONV_LAYERS (a test checks they agree)
+
+
+def conv_same(x: np.ndarray, kernel: np.ndarray, bias: np.ndarray, stride: int) -> np.ndarray:
+    """Flax's Conv with padding "SAME": x (..., H, W, Cin), kernel (kh, kw, Cin, Cout)."""
+    kh, kw = kernel.shape[:2]
+    pads = []
+    for size, k in ((x.shape[-3], kh), (x.shape[-2], kw)):
+        out = -(-size // stride)
+        total = max((out - 1) * stride + k - size, 0)
+        pads.append((total // 2, total - total // 2))
+    x = np.pad(x, [(0, 0)] * (x.ndim - 3) + pads + [(0, 0)])
+    oh, ow = -(-(x.shape[-3] - pads[0][0] - pads[0][1]) // stride), -(-(x.shape[-2] - pads[1][0] - pads[1][1]) // stride)
+    out = np.zeros(x.shape[:-3] + (oh, ow, kernel.shape[-1]))
+    for i in range(kh):
+        for j in range(kw):
+            patch = x[..., i: i + stride * (oh - 1) + 1: stride, j: j + stride * (ow - 1) + 1: stride, :]
+            out += patch @ kernel[i, j]
+    return out + bias
 
 
 def ordered_layers(params: Mapping[str, Any], net: str) -> list[tuple[Any, Any]]:
     """[(kernel, bias)] of network `net` ("policy" or "value"), hidden_0 first."""
     tree = params[net]
     names = sorted((int(_LAYER.match(n).group(1)), n) for n in tree if _LAYER.match(n))
-    if [i for i, _ in names] != list(range(len(names))) or len(names) != len(tree) or not names:
+    encoder = [n for n in tree if n in _ENCODER]
+    if [i for i, _ in names] != list(range(len(names))) or len(names) + len(encoder) != len(tree) or not names:
         raise ValueError(f"{net} layers must be hidden_0 .. hidden_N, got {sorted(tree)}")
     return [(tree[n]["kernel"], tree[n]["bias"]) for _, n in names]
 
 
-def _mlp(obs: Any, mean: np.ndarray, std: np.ndarray, layers: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+def _mlp(obs: Any, mean: Any, std: Any, layers: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     h = (np.asarray(obs, np.float64) - mean) / std
     for kernel, bias in layers[:-1]:
         h = np.maximum(h @ kernel + bias, 0.0)
@@ -46,6 +71,8 @@ class NumpyValue:
     the expected discounted return from a state, which a composite's gate compares."""
 
     def __init__(self, params: Mapping[str, Any]):
+        if any(n in params["value"] for n in _ENCODER):
+            raise ValueError("the value network has a heightmap encoder, which the numpy value does not run")
         self.mean = np.asarray(params["normalizer"]["mean"], np.float64)
         self.std = np.asarray(params["normalizer"]["std"], np.float64)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64))
@@ -61,7 +88,12 @@ class NumpyValue:
 class NumpyPolicy:
     """Deterministic policy from `export_params`-style arrays: normaliser and MLP layers."""
 
-    def __init__(self, mean: Any, std: Any, layers: list[tuple[Any, Any]], action_size: int | None = None):
+    def __init__(self, mean: Any, std: Any, layers: list[tuple[Any, Any]], action_size: int | None = None,
+                 encoder: list[tuple[Any, Any]] | None = None, heightmap_shape: Any = None):
+        """`encoder`: the heightmap encoder's (kernel, bias) of conv_0..2 and encoder, with the
+        heightmap's (rows, cols); none for a plain MLP."""
+        self.encoder = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in encoder or []]
+        self.heightmap_shape = None if not self.encoder else (int(heightmap_shape[0]), int(heightmap_shape[1]))
         if not layers:
             raise ValueError("the policy has no layers")
         self.mean = np.asarray(mean, np.float64)
@@ -73,7 +105,11 @@ class NumpyPolicy:
         self.action_size = out // 2 if action_size is None else int(action_size)
         if 2 * self.action_size != out:
             raise ValueError(f"the last layer has {out} outputs; expected 2 x {self.action_size}")
-        if self.layers[0][0].shape[0] != self.mean.shape[0] or self.std.shape != self.mean.shape:
+        first_in = self.layers[0][0].shape[0]
+        if self.encoder:
+            rows, cols = self.heightmap_shape
+            first_in += rows * cols - self.encoder[-1][1].shape[0]
+        if first_in != self.mean.shape[0] or self.std.shape != self.mean.shape:
             raise ValueError(f"normaliser size {self.mean.shape} does not match the first layer "
                              f"{self.layers[0][0].shape}")
         for (k0, _), (k1, _) in zip(self.layers, self.layers[1:]):
@@ -81,9 +117,17 @@ class NumpyPolicy:
                 raise ValueError(f"layer sizes do not chain: {k0.shape} then {k1.shape}")
 
     @classmethod
-    def from_params(cls, params: Mapping[str, Any]) -> NumpyPolicy:
-        """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}."""
-        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], ordered_layers(params, "policy"))
+    def from_params(cls, params: Mapping[str, Any], heightmap_shape: Any = None) -> NumpyPolicy:
+        """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}
+        (and conv_0..2, encoder for a heightmap policy, whose heightmap is rows x cols)."""
+        policy = params["policy"]
+        encoder = [n for n in _ENCODER if n in policy]
+        if encoder and (len(encoder) != len(_ENCODER) or heightmap_shape is None):
+            raise ValueError(f"a heightmap policy needs {', '.join(_ENCODER)} and the heightmap shape, got "
+                             f"{sorted(policy)}")
+        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], ordered_layers(params, "policy"),
+                   encoder=[(policy[n]["kernel"], policy[n]["bias"]) for n in encoder],
+                   heightmap_shape=heightmap_shape)
 
     @property
     def observation_size(self) -> int:
@@ -95,7 +139,18 @@ class NumpyPolicy:
 
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
-        return _mlp(obs, self.mean, self.std, self.layers)
+        z = (np.asarray(obs, np.float64) - self.mean) / self.std
+        return _mlp(self._encode(z) if self.encoder else z, 0.0, 1.0, self.layers)
+
+    def _encode(self, z: np.ndarray) -> np.ndarray:
+        """[state, heightmap] -> [state, encoding] (the module docstring)."""
+        rows, cols = self.heightmap_shape
+        h = z[..., -rows * cols:].reshape(z.shape[:-1] + (rows, cols, 1))
+        for (kernel, bias), stride in zip(self.encoder[:-1], HEIGHTMAP_STRIDES):
+            h = np.maximum(conv_same(h, kernel, bias, stride), 0.0)
+        kernel, bias = self.encoder[-1]
+        h = np.maximum(h.reshape(h.shape[:-3] + (-1,)) @ kernel + bias, 0.0)
+        return np.concatenate([z[..., : -rows * cols], h], axis=-1)
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""

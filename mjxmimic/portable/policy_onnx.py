@@ -28,6 +28,9 @@ def to_onnx(pf: PolicyFile):
     from onnx import TensorProto, helper, numpy_helper
 
     policy = pf.policy()
+    if policy.encoder:
+        raise UserError("ONNX export covers MLP policies; a terrain policy's heightmap encoder is not written "
+                        "to ONNX yet (use the npz file)")
     obs, act = policy.observation_size, policy.action_size
     inits = [numpy_helper.from_array(np.asarray(pf.params["normalizer"][k], np.float32), f"normalizer/{k}")
              for k in ("mean", "std")]

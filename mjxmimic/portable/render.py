@@ -107,9 +107,11 @@ def _imageio():
     return imageio
 
 
-def ghost_model(character_xml: str | Path, ghost: bool = True, width: int = 640, height: int = 480):
+def ghost_model(character_xml: str | Path, ghost: bool = True, width: int = 640, height: int = 480,
+                terrain: Any = None):
     """An MjModel of the character (qpos[:nq]) plus, with ghost=True, its translucent copy
-    (qpos[nq:2nq]); the offscreen buffer at least width x height."""
+    (qpos[nq:2nq]), on the terrain's course if one is given; the offscreen buffer at least
+    width x height."""
     import mujoco
 
     def load(src):
@@ -118,6 +120,10 @@ def ghost_model(character_xml: str | Path, ghost: bool = True, width: int = 640,
     spec = load(character_xml)
     spec.visual.global_.offwidth = max(int(spec.visual.global_.offwidth), width)
     spec.visual.global_.offheight = max(int(spec.visual.global_.offheight), height)
+    if terrain is not None:
+        from mjxmimic.core.scene import add_terrain
+
+        add_terrain(spec, terrain)
     if ghost:
         copy = load(character_xml)
         root = copy.worldbody.first_body()
@@ -133,13 +139,14 @@ class Scene:
     """Offscreen renderer of a character (and its ghost) posed by qpos; a side-on follow camera."""
 
     def __init__(self, character_xml: str | Path, nq: int, ghost: bool = True, width: int = 640,
-                 height: int = 480, distance: float = 3.5, azimuth: float = 90.0, elevation: float = -12.0):
+                 height: int = 480, distance: float = 3.5, azimuth: float = 90.0, elevation: float = -12.0,
+                 terrain: Any = None):
         setup_gl()
         import mujoco
 
         self.nq = nq
         self.ghost = ghost
-        self.model = ghost_model(character_xml, ghost, width, height)
+        self.model = ghost_model(character_xml, ghost, width, height, terrain)
         self.data = mujoco.MjData(self.model)
         try:
             self.renderer = mujoco.Renderer(self.model, height=height, width=width)
@@ -282,7 +289,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
         limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     policy = pf.policy()
-    scene = Scene(pf.character_xml, character.nq, ghost, width, height)
+    scene = Scene(pf.character_xml, character.nq, ghost, width, height, terrain=env.spec.terrain)
     info: dict[str, Any] = {"steps": 0, "fell": False, "reward": 0.0}
 
     def frames():

@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from mjxmimic.core import terrain as terrain_lib
 from mjxmimic.core.config import Config
 from mjxmimic.task import goals
 from mjxmimic.task import nr as nr_rule
@@ -39,28 +40,39 @@ def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: 
     horizon = jax.vmap(lambda t: env.eval_horizon(t, clip))(t0)
     transition = jax.vmap(lambda s, a: env.transition(s, a, evaluation=True))
 
-    task = task_of(env)
+    task, on_terrain = task_of(env), _on_terrain(env)
+    course = terrain_lib.course_start(state.pipeline_state.qpos[:, 0], jnp) if on_terrain else {}
 
     def body(carry, k):
-        state, acc, task_acc = carry
+        state, acc, task_acc, course = carry
         action = policy_fn(state.obs, jax.random.fold_in(k_policy, k))
         nxt = transition(state, action)
         m = nxt.metrics
         if task:
             task_acc = goals.metrics_add(task_acc, acc["alive"] & (k < horizon), m, jnp)
+        if on_terrain:
+            course = terrain_lib.course_add(course, acc["alive"] & (k < horizon) & ~(nxt.info["failed"] > 0),
+                                            m["terrain/x"], jnp)
         acc = nr_rule.add_step(acc, k, horizon, m["reward/imitation"], m["reward_paper"], nxt.info["failed"] > 0,
                                nxt.info["clip_end"] > 0, m["error/pose"], m["error/end_effector"], jnp)
         # An episode that is over keeps its last state (finite, and cheap to step).
         state = jax.vmap(env.select)(acc["alive"], nxt, state)
-        return (state, acc, task_acc), None
+        return (state, acc, task_acc, course), None
 
-    start = (state, nr_rule.start((num_episodes,), jnp), goals.metrics_start(task, (num_episodes,), jnp))
-    (_, acc, task_acc), _ = jax.lax.scan(body, start, jnp.arange(env.max_eval_horizon))
+    start = (state, nr_rule.start((num_episodes,), jnp), goals.metrics_start(task, (num_episodes,), jnp), course)
+    (_, acc, task_acc, course), _ = jax.lax.scan(body, start, jnp.arange(env.max_eval_horizon))
     acc["horizon"] = horizon
     acc["start_time"] = t0
     if task:
         acc["task"] = task_acc
+    if on_terrain:
+        acc["course"] = course
     return acc
+
+
+def _on_terrain(env) -> bool:
+    spec = getattr(env, "spec", None)
+    return getattr(spec, "terrain", None) is not None
 
 
 def task_of(env) -> str:
@@ -68,12 +80,15 @@ def task_of(env) -> str:
     return env.config.task.name if "reward/task" in getattr(env, "metric_keys", ()) else ""
 
 
-def summarize(acc: dict, control_dt: float, task: str = "") -> dict:
-    """Per-episode sums (host arrays) -> the EVALUATION.md numbers (and the task's)."""
+def summarize(acc: dict, control_dt: float, task: str = "", course_length: float = 0.0) -> dict:
+    """Per-episode sums (host arrays) -> the EVALUATION.md numbers (and the task's, and on a
+    terrain the course's: distance before a fall, success)."""
     sums = {k: v for k, v in acc.items() if k in nr_rule.FIELDS}
     result = nr_rule.summarize(sums, acc["horizon"], control_dt)
     if task:
         result.update(goals.metrics_summarize(task, acc["task"], acc["horizon"], acc["failed"]))
+    if "course" in acc:
+        result.update(terrain_lib.course_summarize(acc["course"], course_length))
     return result
 
 
@@ -114,7 +129,8 @@ def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episode
     start = time.time()
     run = jax.jit(lambda key, clip: _rollout(env, policy_fn, key, n, clip))
     key, task = jax.random.PRNGKey(seed), task_of(env)
-    result = per_clip(env, lambda c: summarize(jax.device_get(run(key, c)), env.control_dt, task))
+    result = per_clip(env, lambda c: summarize(jax.device_get(run(key, c)), env.control_dt, task,
+                                               config.terrain.length_m))
     return _finish(result, time.time() - start, samples, train_seconds)
 
 
@@ -132,6 +148,7 @@ class Evaluator:
     def __init__(self, env, config: Config, make_policy: Callable[[Any, bool], Callable],
                  episodes: int | None = None):
         self.env = env
+        self.course_length = config.terrain.length_m
         self.num_episodes = int(episodes or config.run.eval_episodes)
         self.stochastic = config.run.eval_stochastic
         self._run = jax.jit(
@@ -160,7 +177,7 @@ class Evaluator:
 
         def graded(deterministic: bool) -> dict:
             return per_clip(self.env, lambda c: summarize(
-                jax.device_get(self._episodes(params, key, deterministic, c)), dt, task))
+                jax.device_get(self._episodes(params, key, deterministic, c)), dt, task, self.course_length))
 
         result = graded(True)
         if self.stochastic:

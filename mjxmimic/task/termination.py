@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, NamedTuple
 
-from mjxmimic.core.kinematics import Kin
+from mjxmimic.core.kinematics import ROOT_BODY, Kin
 
 
 class Outcome(NamedTuple):
@@ -23,6 +23,7 @@ class Outcome(NamedTuple):
     diverged: Any  # bool, the simulator's own divergence flag
     max_joint_velocity: float
     pose_termination_m: float
+    pit_z: Any = None  # on a terrain: the root below this height fell into a gap or off the beam
 
 
 # a reference geom whose bounding sphere comes this close to the floor counts as touching it
@@ -57,18 +58,26 @@ def pose_deviation(o: Outcome, xp: Any) -> Any:
     return xp.max(gap) > o.pose_termination_m
 
 
+def pit(o: Outcome, xp: Any) -> Any:
+    """On a terrain: the root is below every walkable surface (mjxmimic.core.terrain), so the
+    character fell into a gap or off the beam."""
+    return o.sim.xipos[ROOT_BODY, 2] < o.pit_z
+
+
 TERMS: dict[str, Callable[[Outcome, Any], Any]] = {"fall": fall, "bad_state": bad_state,
-                                                   "pose_deviation": pose_deviation}
+                                                   "pose_deviation": pose_deviation, "pit": pit}
 EVALUATION = ("fall", "bad_state")
 
 
-def training_list(pose_termination_m: float, early_termination: bool = True) -> tuple[str, ...]:
+def training_list(pose_termination_m: float, early_termination: bool = True, terrain: bool = False) -> tuple[str, ...]:
     names = ("fall",) if early_termination else ()
     names += ("bad_state",)
     if pose_termination_m > 0:
         names += ("pose_deviation",)
-    return names
+    return names + (("pit",) if terrain else ())
 
 
-def evaluation_list(early_termination: bool = True) -> tuple[str, ...]:
-    return EVALUATION if early_termination else ("bad_state",)
+def evaluation_list(early_termination: bool = True, terrain: bool = False) -> tuple[str, ...]:
+    """Falls and lost states; on a terrain also a fall into a gap (whatever env.early_termination
+    says: the character cannot get out)."""
+    return (EVALUATION if early_termination else ("bad_state",)) + (("pit",) if terrain else ())

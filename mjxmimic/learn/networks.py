@@ -1,0 +1,80 @@
+"""Network factories beyond Brax's MLP: the heightmap encoder of DeepMimic's terrain policies
+(DEEPMIMIC.md: "3 conv layers ... then a 64-unit layer, joined with the state").
+
+The observation of a terrain env ends with the heightmap (mjxmimic.envs.step: rows x cols heights
+in the heading frame). `HeightmapMLP` splits it off, runs it through CONV_LAYERS (SAME padding,
+relu), flattens, a dense `encoder` layer of ENCODER_UNITS (relu), concatenates that with the
+state features (everything before the heightmap, normalised) and runs the usual MLP
+(`hidden_0` .. `hidden_L`, relu after all but the last). Layer names are flat (conv_0, conv_1,
+conv_2, encoder, hidden_i), so the portable policy file stores them as it stores an MLP's, and
+mjxmimic.portable.policy_numpy computes the same function without JAX.
+
+The paper's first two layers are 16 8x8 and 32 4x4 filters on a heightmap of unknown size; on
+the 16 x 16 default grid here the strides and sizes below keep a 4 x 4 x 32 map before the dense
+layer (8x8 filters would cover half the grid).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from brax.training import networks as brax_networks
+from brax.training.agents.ppo import networks as ppo_networks
+from brax.training.distribution import NormalTanhDistribution
+from flax import linen
+
+# (filters, kernel size, stride) of each conv layer; mirrored by policy_numpy.HEIGHTMAP_CONV
+CONV_LAYERS = ((16, 4, 2), (32, 3, 2), (32, 3, 1))
+ENCODER_UNITS = 64
+
+
+class HeightmapMLP(linen.Module):
+    """The encoder + MLP above; `heightmap_shape` (rows, cols) are the observation's last numbers."""
+
+    layer_sizes: Sequence[int]
+    heightmap_shape: tuple[int, int]
+
+    @linen.compact
+    def __call__(self, obs: jax.Array) -> jax.Array:
+        rows, cols = self.heightmap_shape
+        state, hmap = obs[..., : -rows * cols], obs[..., -rows * cols:]
+        h = hmap.reshape(hmap.shape[:-1] + (rows, cols, 1))
+        for i, (filters, size, stride) in enumerate(CONV_LAYERS):
+            h = linen.relu(linen.Conv(filters, (size, size), strides=(stride, stride), padding="SAME",
+                                      name=f"conv_{i}")(h))
+        h = linen.relu(linen.Dense(ENCODER_UNITS, name="encoder")(h.reshape(h.shape[:-3] + (-1,))))
+        h = jnp.concatenate([state, h], axis=-1)
+        for i, size in enumerate(self.layer_sizes):
+            h = linen.Dense(size, kernel_init=jax.nn.initializers.lecun_uniform(), name=f"hidden_{i}")(h)
+            if i < len(self.layer_sizes) - 1:
+                h = linen.relu(h)
+        return h
+
+
+def _network(module: linen.Module, observation_size: int, preprocess: Any,
+             squeeze: bool = False) -> brax_networks.FeedForwardNetwork:
+    def init(key: jax.Array) -> Any:
+        return module.init(key, jnp.zeros((1, observation_size)))
+
+    def apply(processor_params: Any, params: Any, obs: jax.Array) -> jax.Array:
+        out = module.apply(params, preprocess(obs, processor_params))
+        return jnp.squeeze(out, axis=-1) if squeeze else out
+
+    return brax_networks.FeedForwardNetwork(init=init, apply=apply)
+
+
+def make_heightmap_networks(observation_size: int, action_size: int, policy_hidden: Sequence[int],
+                            value_hidden: Sequence[int], heightmap_shape: Sequence[int],
+                            preprocess: Any) -> ppo_networks.PPONetworks:
+    """Brax PPO networks (tanh-normal policy, scalar value) whose policy and value both read the
+    heightmap through their own encoder."""
+    dist = NormalTanhDistribution(event_size=action_size)
+    shape = (int(heightmap_shape[0]), int(heightmap_shape[1]))
+    policy = HeightmapMLP(layer_sizes=(*policy_hidden, dist.param_size), heightmap_shape=shape)
+    value = HeightmapMLP(layer_sizes=(*value_hidden, 1), heightmap_shape=shape)
+    return ppo_networks.PPONetworks(policy_network=_network(policy, observation_size, preprocess),
+                                    value_network=_network(value, observation_size, preprocess, squeeze=True),
+                                    parametric_action_distribution=dist)
