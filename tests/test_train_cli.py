@@ -160,8 +160,8 @@ def test_resume_continues_from_the_saved_env_steps(tmp_path):
     assert meta["env_steps"] == 10240 and meta["iterations"] == 20
 
     def resume_with(*sets):
-        return resolve_run(argparse.Namespace(resume=run_dir, overrides=list(sets), clip=None, character=None, preset=None,
-                                              out=None, name=None, seed=None))
+        return resolve_run(argparse.Namespace(resume=run_dir, overrides=list(sets), clip=None, character=None,
+                                              terrain=None, preset=None, out=None, name=None, seed=None))
 
     config, _, resuming = resume_with("ppo.learning_rate=1e-4")  # a fine-tuning phase
     assert resuming and config.ppo.learning_rate == 1e-4
