@@ -195,16 +195,15 @@ def recovery_test(composite: Composite, knockdowns: int = 50, force_n: float = 1
     height = float(np.mean(gate.clips[lead].qpos[:, 2]))
     hz = round(1.0 / env.control_dt)
     rng = np.random.default_rng(seed)
-    trials, rows = 0, []
+    rows: list[dict[str, Any]] = []
     steps_by_expert = np.zeros(len(gate.clips), int)
     for trials in range(1, (max_trials or 3 * knockdowns) + 1):
         gate.reset(lead, float(rng.uniform(0.0, float(env.clip_durations[lead]))))
         turn = float(rng.uniform(0.0, 2 * np.pi))
-        push_steps = round(PUSH_S * hz)
         down_at, up_run, pose, recovered_at = None, 0, [], None
         total = round((WALK_BEFORE_PUSH_S + DETECT_DOWN_S + RECOVER_WITHIN_S) * hz)
         for k in range(total):
-            pushing = round(WALK_BEFORE_PUSH_S * hz) <= k < round(WALK_BEFORE_PUSH_S * hz) + push_steps
+            pushing = round(WALK_BEFORE_PUSH_S * hz) <= k < round((WALK_BEFORE_PUSH_S + PUSH_S) * hz)
             force = push_protocol.wrench(env.data.qpos, force_n, turn, float(pushing), env.model.nbody, np) \
                 if pushing else None
             s, expert = gate.step(force)
