@@ -11,6 +11,10 @@ It is the function Brax's PPO networks compute (mjxmimic.learn.ppo, "Exported pa
 
 The computation runs in float64 (the parameters are float32 as trained); the test suite checks
 it against the JAX policy to 1e-5.
+
+The value network (Brax's `make_value_network`, exported beside the policy for composites) is the
+same MLP on the same normalised observation, with one output: V(obs) = (h @ kernel_L + bias_L)[0].
+`mlp` is written over an array module `xp` so that MJX evaluation runs the identical function.
 """
 
 from __future__ import annotations
@@ -22,6 +26,23 @@ from typing import Any
 import numpy as np
 
 _LAYER = re.compile(r"hidden_(\d+)$")
+
+
+def mlp(layers: list[tuple[Any, Any]], mean: Any, std: Any, obs: Any, xp: Any = np) -> Any:
+    """The normalised observation through relu layers, the last one linear."""
+    h = (obs - mean) / std
+    for kernel, bias in layers[:-1]:
+        h = xp.maximum(h @ kernel + bias, 0.0)
+    kernel, bias = layers[-1]
+    return h @ kernel + bias
+
+
+def ordered_layers(net: Mapping[str, Any]) -> list[tuple[Any, Any]]:
+    """{"hidden_0": {"kernel", "bias"}, ...} -> [(kernel, bias), ...] in layer order."""
+    names = sorted((int(_LAYER.match(n).group(1)), n) for n in net if _LAYER.match(n))
+    if [i for i, _ in names] != list(range(len(names))) or len(names) != len(net):
+        raise ValueError(f"network layers must be hidden_0 .. hidden_N, got {sorted(net)}")
+    return [(net[n]["kernel"], net[n]["bias"]) for _, n in names]
 
 
 class NumpyPolicy:
@@ -49,11 +70,7 @@ class NumpyPolicy:
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> NumpyPolicy:
         """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}."""
-        policy = params["policy"]
-        names = sorted((int(_LAYER.match(n).group(1)), n) for n in policy if _LAYER.match(n))
-        if [i for i, _ in names] != list(range(len(names))) or len(names) != len(policy):
-            raise ValueError(f"policy layers must be hidden_0 .. hidden_N, got {sorted(policy)}")
-        layers = [(policy[n]["kernel"], policy[n]["bias"]) for _, n in names]
+        layers = ordered_layers(params["policy"])
         return cls(params["normalizer"]["mean"], params["normalizer"]["std"], layers)
 
     @property
@@ -66,12 +83,35 @@ class NumpyPolicy:
 
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
-        h = (np.asarray(obs, np.float64) - self.mean) / self.std
-        for kernel, bias in self.layers[:-1]:
-            h = np.maximum(h @ kernel + bias, 0.0)
-        kernel, bias = self.layers[-1]
-        return h @ kernel + bias
+        return mlp(self.layers, self.mean, self.std, np.asarray(obs, np.float64))
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""
         return np.tanh(self.logits(obs)[..., : self.action_size])
+
+
+class NumpyValue:
+    """The state-value estimate V(obs) from the exported value network (shares the policy's
+    normaliser): {"normalizer": {"mean", "std"}, "value": {"hidden_0": ..., "hidden_L": (h, 1)}}."""
+
+    def __init__(self, mean: Any, std: Any, layers: list[tuple[Any, Any]]):
+        self.mean = np.asarray(mean, np.float64)
+        self.std = np.asarray(std, np.float64)
+        self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64)) for k, b in layers]
+        if not self.layers or self.layers[-1][1].shape != (1,):
+            raise ValueError("the value network's last layer must have one output")
+        if self.layers[0][0].shape[0] != self.mean.shape[0]:
+            raise ValueError(f"normaliser size {self.mean.shape} does not match the value network's first "
+                             f"layer {self.layers[0][0].shape}")
+
+    @classmethod
+    def from_params(cls, params: Mapping[str, Any]) -> NumpyValue:
+        return cls(params["normalizer"]["mean"], params["normalizer"]["std"], ordered_layers(params["value"]))
+
+    @property
+    def hidden_sizes(self) -> tuple[int, ...]:
+        return tuple(int(b.shape[0]) for _, b in self.layers[:-1])
+
+    def __call__(self, obs: Any) -> Any:
+        """V(obs): a float for one observation, (...,) for a batch."""
+        return mlp(self.layers, self.mean, self.std, np.asarray(obs, np.float64))[..., 0]

@@ -134,7 +134,8 @@ def _restore_as_numpy(run_dir: Path, step: int, targets: dict[str, Any], best: b
 
 def restore_policy(run_dir: Path, networks, observation_size: int, step: int,
                    best: bool = False) -> tuple[dict, dict]:
-    """(`mjxmimic.learn.ppo.export_params`-style numpy params, meta with "checkpoint") of checkpoint
+    """(`mjxmimic.learn.ppo.export_params`-style numpy params, with the value network's layers as
+    "value" beside the policy's, and meta with "checkpoint") of checkpoint
     `step`: only the "params" and "learner" items, restored into a template of `networks` (Brax
     PPO networks), so no environment, trainer or optimiser state is built."""
     key = jax.random.PRNGKey(0)
@@ -153,8 +154,8 @@ def restore_policy(run_dir: Path, networks, observation_size: int, step: int,
     try:
         normalizer = out["learner"]["normalizer"]
         params = {"normalizer": {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)},
-                  "policy": {name: {k: np.asarray(v) for k, v in layer.items()}
-                             for name, layer in out["params"]["policy"]["params"].items()}}
+                  **{net: {name: {k: np.asarray(v) for k, v in layer.items()}
+                           for name, layer in out["params"][net]["params"].items()} for net in ("policy", "value")}}
     except (KeyError, TypeError) as err:
         raise UserError(f"{run_dir}: checkpoint {step} does not hold a policy and normaliser where "
                         f"expected ({err})") from None
