@@ -20,6 +20,7 @@ COMMANDS = {
     "clips": ("mjxmimic.commands.clips", "list, inspect and render motion clips"),
     "export": ("mjxmimic.commands.export", "write a run's policy to one portable file"),
     "play": ("mjxmimic.commands.play", "play an exported policy in MuJoCo on the CPU (no JAX)"),
+    "compose": ("mjxmimic.commands.compose", "a composite policy of experts gated by their value functions"),
     "render": ("mjxmimic.commands.render", "render a policy to a video"),
     "bench": ("mjxmimic.commands.bench", "throughput benchmarks"),
     "sweep": ("mjxmimic.commands.sweep", "run a grid of training runs and report"),

@@ -12,6 +12,9 @@ errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
 --push runs DeepMimic's Table 6 push test instead (mjxmimic.portable.push_playback), as
 `mjxmimic eval RUN --push` does on MJX.
+A composite file (`mjxmimic compose`) plays one run of --seconds (optionally pushed with
+--push-once FORCE@TIME) and reports which expert ran when; with --knockdowns N it measures the
+recovery rate (mjxmimic.task.recovery) on the CPU instead.
 """
 
 from __future__ import annotations
@@ -42,6 +45,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a policy trained on a dataset with the skill observation: switch the skill it "
                              "follows, e.g. \"walk:4,run:4,walk:4\" (one run, no reset between skills)")
+    composite = parser.add_argument_group("composite files (mjxmimic compose)")
+    composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
+    composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
+    composite.add_argument("--expert", metavar="NAME", default=None,
+                           help="the expert to start in (default: the first looping one)")
+    composite.add_argument("--temperature", type=float, default=None, help="override the file's gate temperature")
+    composite.add_argument("--push-once", metavar="FORCE@TIME", default=None,
+                           help="push the pelvis with FORCE newtons for 0.2 s at TIME seconds")
+    composite.add_argument("--push-direction", choices=["forward", "sideways", "backward", "random"],
+                           default=None, help="of --push-once (default forward) or of the knock-downs (default random)")
+    composite.add_argument("--knockdowns", type=int, default=None,
+                           help="the recovery rate over this many knock-downs instead (mjxmimic.task.recovery)")
+    composite.add_argument("--force", type=float, default=None,
+                           help="the knock-down push in newtons (default mjxmimic.task.recovery.DEFAULT_FORCE_N)")
 
 
 def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
@@ -192,9 +209,14 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
 
     from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.portable import composite
     from mjxmimic.portable.playback import evaluate
     from mjxmimic.runs.folder import load_policy_file
 
+    if composite.is_composite(args.policy):
+        from mjxmimic.commands import composite_report
+
+        return composite_report.play(args, composite.read(args.policy))
     pf = load_policy_file(args.policy)
     character = pf.character()
     clips = pf.clips()

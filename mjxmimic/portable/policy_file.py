@@ -388,14 +388,19 @@ def params_from_arrays(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     return out
 
 
+def load_arrays(path: Path, what: str = "an npz policy file") -> dict[str, np.ndarray]:
+    """Every array of an npz file (no pickles); a one-line UserError when it cannot be read."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError) as err:
+        raise UserError(f"{path}: cannot read as {what} ({err})") from None
+
+
 def read_npz(path: Path) -> PolicyFile:
     """An npz policy file; anything else is a one-line UserError."""
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as err:
-        raise UserError(f"{path}: cannot read as an npz policy file ({err})") from None
+    data = load_arrays(path)
     for key in ("manifest", "character_xml", "normalizer/mean", "normalizer/std", "clip/qpos", "clip/durations"):
         if key not in data:
             raise UserError(f"{path}: not an mjxmimic policy file (no '{key}' array)")
