@@ -233,7 +233,7 @@ class Player:
         return env.step(self.policies[choice](d.obs[choice]), external_force=external_force), d
 
 
-def _timeline(names: list[str], experts: list[int], dt: float) -> list[dict[str, Any]]:
+def timeline(names: list[str], experts: list[int], dt: float) -> list[dict[str, Any]]:
     """Runs of one expert: name, from and to (s)."""
     out: list[dict[str, Any]] = []
     for k, e in enumerate(experts):
@@ -276,7 +276,7 @@ def play(c: Composite, seconds: float = 10.0, start: float = 0.0, expert: str | 
     return {"composite": str(c.path), "experts": c.names, "temperature": player.gate.temperature,
             "start_expert": c.names[first], "start_time": float(start), "seconds": len(chosen) * dt,
             "push": None if push is None else {"force_n": push[0], "at_s": push[1], "turn_rad": push[2]},
-            "timeline": _timeline(c.names, chosen, dt), "expert_share": dict(zip(c.names, map(float, shares))),
+            "timeline": timeline(c.names, chosen, dt), "expert_share": dict(zip(c.names, map(float, shares))),
             "min_root_height_m": min(heights), "end_root_height_m": heights[-1],
             "standing_at_end": heights[-1] >= protocol.UP_FRACTION * stand, "lost_state": bad,
             "stand_height_m": stand}
