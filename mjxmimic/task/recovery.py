@@ -97,7 +97,7 @@ def update(s: State, k: Any, root_height: Any, locomotion: Any, pose_error: Any,
     """The rule after measuring the state at the start of step k (module docstring)."""
     low = root_height < DOWN_FRACTION * stand_height
     up = root_height >= UP_FRACTION * stand_height
-    up_at_push = xp.where(k == n.lead, up.astype(xp.int32), s.up_at_push).astype(xp.int32)
+    up_at_push = xp.where(k == n.lead, xp.where(up, 1, 0), s.up_at_push).astype(xp.int32)
     in_window = (k >= n.lead) & (k < n.lead + n.down_within) & (up_at_push == 1)
     down_step = xp.where((s.down_step < 0) & low & in_window, k, s.down_step).astype(xp.int32)
     good = up & locomotion & (pose_error <= POSE_TOLERANCE_RAD)
