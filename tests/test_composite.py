@@ -363,3 +363,54 @@ def test_the_gate_decides_alike_on_mjx(player, composite_file):
         np.testing.assert_allclose(np.asarray(got.probabilities), want.probabilities, atol=1e-3)
         assert int(got.choice) == int(want.choice)
         assert float(got.pose_error) == pytest.approx(float(want.pose_error), abs=1e-3)
+
+
+def test_render_a_composite(composite_file, tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="the render extra is not installed")
+    from mjxmimic.portable.render import render_composite, setup_gl
+
+    try:
+        setup_gl()
+    except UserError as err:
+        pytest.skip(f"no headless OpenGL: {err}")
+    info = render_composite(composite.read(composite_file), tmp_path / "c.mp4", seconds=0.4, push=(3000.0, 0.1, 0.0),
+                            width=160, height=128)
+    assert info["frames"] == info["steps"] + 1 == 13 and info["timeline"][0]["from_s"] == 0.0
+
+
+# ------------------------------------------------------------------ end to end with trained experts
+
+EXPERT_SET = ["run.total_samples=4096", "run.eval_every=4096", "run.checkpoint_every=4096", "run.eval_episodes=4",
+              "env.action_mode=residual", "env.action_scale=0.1"]
+
+
+@pytest.mark.slow
+def test_trained_experts_compose_and_recover_end_to_end(tmp_path, short_protocol, capsys):
+    """Two cpu-preset experts trained briefly (slow_walk, getup_facedown), exported with their
+    value networks, composed, and the recovery evaluation run on the CPU and on MJX (the same
+    trials: with a push strong enough, both knock the same trials down)."""
+    from mjxmimic.runs import composite_eval
+
+    experts = []
+    for clip in ("slow_walk", "getup_facedown"):
+        run_dir = tmp_path / clip
+        args = ["train", "--preset", "cpu", "--clip", clip, "--out", str(run_dir), "--seed", "1"]
+        for item in EXPERT_SET:
+            args += ["--set", item]
+        assert cli.main(args) == 0
+        assert cli.main(["export", str(run_dir)]) == 0
+        assert policy_file.read(run_dir / "policy.npz").has_value()
+        experts.append(str(run_dir))
+    out = tmp_path / "composite.npz"
+    assert cli.main(["compose", *experts, "--out", str(out)]) == 0
+    capsys.readouterr()
+    c = composite.read(out)
+    cpu = composite.recovery_rate(c, knockdowns=3, force_n=3000.0, direction="forward", seed=0, max_trials=6)
+    mjx = composite_eval.recovery_rate(c, knockdowns=3, force_n=3000.0, direction="forward", seed=0, batch=6)
+    for result in (cpu, mjx):
+        assert result["knockdowns"] == 3, result
+        assert 0.0 <= result["recovery_rate"] <= 1.0
+        assert sum(result["expert_share"].values()) == pytest.approx(1.0)
+    assert cpu["knocked_trials"] == mjx["knocked_trials"]
+    assert cli.main(["eval", str(out), "--knockdowns", "1", "--force", "3000", "--batch", "2", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["knockdowns"] == 1
