@@ -365,14 +365,9 @@ def test_the_gate_decides_alike_on_mjx(player, composite_file):
         assert float(got.pose_error) == pytest.approx(float(want.pose_error), abs=1e-3)
 
 
-def test_render_a_composite(composite_file, tmp_path):
-    pytest.importorskip("imageio_ffmpeg", reason="the render extra is not installed")
-    from mjxmimic.portable.render import render_composite, setup_gl
+def test_render_a_composite(composite_file, tmp_path, headless_video):
+    from mjxmimic.portable.render import render_composite
 
-    try:
-        setup_gl()
-    except UserError as err:
-        pytest.skip(f"no headless OpenGL: {err}")
     info = render_composite(composite.read(composite_file), tmp_path / "c.mp4", seconds=0.4, push=(3000.0, 0.1, 0.0),
                             width=160, height=128)
     assert info["frames"] == info["steps"] + 1 == 13 and info["timeline"][0]["from_s"] == 0.0
