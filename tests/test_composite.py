@@ -313,6 +313,24 @@ def test_play_a_composite_without_jax_switches_experts(composite_file):
     assert sum(out["expert_share"].values()) == pytest.approx(1.0)
 
 
+def test_clip_nr_with_its_own_expert_is_that_expert_s_nr(composite_file, expert_files):
+    """Forcing a clip's own expert is playing that expert alone: its sim-to-sim NR on the same
+    start times, to the bit; the gate's NR comes beside it."""
+    from mjxmimic.portable.playback import evaluate
+
+    c = composite.read(composite_file)
+    out = composite.clip_nr(c, episodes=2, seed=4)
+    for e, (name, path) in enumerate(expert_files.items()):
+        pf = policy_file.read(path)
+        env = CpuEnv(pf.config(), pf.character(), pf.clip())
+        span = float(env.clip_durations[0]) - (0.0 if c.loops[e] else env.control_dt)
+        starts = np.random.default_rng([4, e]).uniform(0.0, span, size=2)
+        alone = evaluate(env, pf.policy(), starts)
+        row = out["clips"][name]
+        assert row["nr_own"] == pytest.approx(alone["nr"], abs=1e-9), (name, row, alone["nr"])
+        assert 0.0 <= row["nr_gate"] <= 1.0 and 0.0 <= row["kept"] <= 1.0
+
+
 def test_play_text_report(composite_file, capsys):
     assert cli.main(["play", str(composite_file), "--seconds", "0.3", "--temperature", "0"]) == 0
     text = capsys.readouterr().out

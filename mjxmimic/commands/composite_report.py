@@ -55,6 +55,20 @@ def play(args: argparse.Namespace, c) -> int:
                                          expert=args.expert, temperature=args.temperature, progress=say)
         print_recovery(result, args.json)
         return 0
+    if args.episodes is not None:
+        if args.episodes < 1:
+            raise UserError(f"--episodes {args.episodes}: must be at least 1")
+        result = composite.clip_nr(c, args.episodes, 0 if args.seed is None else args.seed, args.temperature)
+        if args.json:
+            print(json.dumps(result, indent=1))
+            return 0
+        print(f"{c.path}: NR per clip from its own RSI states, {args.episodes} episodes each, MuJoCo CPU "
+              f"(own: the clip's expert always; gate: the composite; temperature {result['temperature']:g})")
+        print(f"  {'clip':<20} {'NR own':>7} {'NR gate':>8} {'falls own':>9} {'falls gate':>10} {'kept':>5}")
+        for name, r in result["clips"].items():
+            print(f"  {name:<20} {r['nr_own']:>7.3f} {r['nr_gate']:>8.3f} {r['fall_rate_own']:>9.2f} "
+                  f"{r['fall_rate_gate']:>10.2f} {100 * r['kept']:>4.0f}%")
+        return 0
     if args.seconds <= 0:
         raise UserError(f"--seconds {args.seconds}: must be positive")
     direction = args.push_direction or "forward"

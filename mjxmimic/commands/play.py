@@ -14,7 +14,8 @@ errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 `mjxmimic eval RUN --push` does on MJX.
 A composite file (`mjxmimic compose`) plays one run of --seconds (optionally pushed with
 --push-once FORCE@TIME) and reports which expert ran when; with --knockdowns N it measures the
-recovery rate (mjxmimic.task.recovery) on the CPU instead.
+recovery rate (mjxmimic.task.recovery) on the CPU instead, and with --episodes N each clip's NR
+with its own expert and under the gate (mjxmimic.portable.composite.clip_nr).
 """
 
 from __future__ import annotations

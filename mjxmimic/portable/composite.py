@@ -222,15 +222,19 @@ class Player:
     def reset(self, t: float, expert: int) -> None:
         self.env.reset_at(t, clip=expert)
 
-    def step(self, u: float, external_force: Any = None) -> tuple[Any, gate_lib.Decision]:
-        """The gate's decision, then one control step of the chosen expert: (Step, Decision)."""
+    def step(self, u: float, external_force: Any = None, values_of: Callable[[np.ndarray], np.ndarray] | None = None,
+             grade_paper: bool = False) -> tuple[Any, gate_lib.Decision]:
+        """The gate's decision (on the experts' values, or `values_of`), then one control step of
+        the chosen expert: (Step, Decision)."""
         env = self.env
         qpos, qvel = env.data.qpos.copy(), env.data.qvel.copy()
-        d = gate_lib.decide(env.spec, self.gate, env.physics, qpos, qvel, env.motion, self.values_of, np.float32(u))
+        d = gate_lib.decide(env.spec, self.gate, env.physics, qpos, qvel, env.motion, values_of or self.values_of,
+                            np.float32(u))
         motion = gate_lib.switch(env.spec, env.motion, d, qpos, np)
         env.motion = motion._replace(clip=int(motion.clip), time=np.float32(motion.time))
         choice = int(d.choice)
-        return env.step(self.policies[choice](d.obs[choice]), external_force=external_force), d
+        return env.step(self.policies[choice](d.obs[choice]), external_force=external_force,
+                        grade_paper=grade_paper), d
 
 
 def timeline(names: list[str], experts: list[int], dt: float) -> list[dict[str, Any]]:
@@ -280,6 +284,52 @@ def play(c: Composite, seconds: float = 10.0, start: float = 0.0, expert: str | 
             "min_root_height_m": min(heights), "end_root_height_m": heights[-1],
             "standing_at_end": heights[-1] >= protocol.UP_FRACTION * stand, "lost_state": bad,
             "stand_height_m": stand}
+
+
+def clip_nr(c: Composite, episodes: int = 8, seed: int = 0, temperature: float | None = None) -> dict[str, Any]:
+    """Per expert clip, EVALUATION.md's NR protocol from RSI states of that clip twice over the same
+    start times: with that clip's own expert forced (the value selector always picking it: its
+    sim-to-sim NR) and with the gate choosing. Each step is graded against the active expert's
+    clip and ends by its fall rule; the horizon is the start clip's. `kept` is the share of the
+    gated steps in which the gate kept the clip's own expert."""
+    from mjxmimic.task import nr as nr_rule
+    from mjxmimic.task import termination
+
+    player = Player(c, temperature)
+    env = player.env
+    env.terminations = termination.evaluation_list(True)
+    rows: dict[str, Any] = {}
+    for e, name in enumerate(c.names):
+        duration = float(env.clip_durations[e]) - (0.0 if c.loops[e] else env.control_dt)
+        starts = np.random.default_rng([seed, e]).uniform(0.0, max(duration, 0.0), size=episodes)
+        own = np.where(np.arange(len(c.names)) == e, 0.0, -np.inf)
+        row: dict[str, Any] = {}
+        for mode, values_of in (("own", lambda obs, own=own: own), ("gate", None)):
+            sums, horizons, kept, total = [], [], 0, 0
+            u = np.random.default_rng([seed, e, 1]).uniform(size=(episodes, env.max_eval_horizon))
+            for i, t0 in enumerate(starts):
+                player.reset(float(t0), e)
+                horizon = env.eval_horizon(float(t0), e)
+                acc = nr_rule.start((), np)
+                for k in range(horizon):
+                    s, d = player.step(u[i, k], values_of=values_of, grade_paper=True)
+                    kept, total = kept + (int(d.choice) == e), total + 1
+                    m = s.metrics
+                    acc = nr_rule.add_step(acc, k, horizon, m["reward/imitation"], m["reward_paper"], s.failed,
+                                           s.clip_end, m["error/pose"], m["error/end_effector"], np)
+                    if not acc["alive"]:
+                        break
+                sums.append({k: float(acc[k]) for k in nr_rule.FIELDS})
+                horizons.append(horizon)
+            summary = nr_rule.summarize({k: np.array([x[k] for x in sums]) for k in nr_rule.FIELDS},
+                                        np.array(horizons), env.control_dt)
+            row[f"nr_{mode}"], row[f"nr_paper_{mode}"] = summary["nr"], summary["nr_paper"]
+            row[f"fall_rate_{mode}"] = summary["fall_rate"]
+            if mode == "gate":
+                row["kept"] = kept / max(total, 1)
+        rows[name] = row
+    return {"composite": str(c.path), "episodes": episodes, "seed": seed, "temperature": player.gate.temperature,
+            "clips": rows}
 
 
 def recovery_trial(player: Player, t0: float, expert: int, force_n: float, turn: float, u: np.ndarray,
