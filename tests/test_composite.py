@@ -336,6 +336,8 @@ def test_play_text_report(composite_file, capsys):
     text = capsys.readouterr().out
     assert "slow_walk" in text and "gate temperature 0" in text and "root height" in text
     assert cli.main(["play", str(composite_file), "--knockdowns", "0"]) == 2
+    assert cli.main(["play", str(composite_file), "--push"]) == 2
+    assert "--push is for single policies" in capsys.readouterr().err
     assert cli.main(["play", str(composite_file), "--expert", "run"]) == 2
     assert "unknown expert 'run'" in capsys.readouterr().err
 

@@ -47,6 +47,11 @@ def play(args: argparse.Namespace, c) -> int:
     from mjxmimic.core.errors import UserError
     from mjxmimic.portable import composite
 
+    for flag, given in (("--viewer", args.viewer), ("--push", args.push), ("--clip", args.clip is not None),
+                        ("--skill-sequence", args.skill_sequence is not None)):
+        if given:
+            raise UserError(f"{flag} is for single policies; a composite plays with --push-once, --knockdowns "
+                            f"or --episodes")
     if args.knockdowns is not None:
         force, direction = check_knockdowns(args)
         say = None if args.json else (lambda i, k, r: print(f"  trial {i + 1}: {k} knock-downs, {r} recovered",
