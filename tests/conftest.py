@@ -51,3 +51,16 @@ def env_fns(residual_env):
         evaluate=jax.jit(lambda s, a: env.transition(s, a, evaluation=True)),
         step=jax.jit(env.step),
     )
+
+
+@pytest.fixture(scope="session")
+def headless_video():
+    """Skips a test that writes a video where the render extra or headless OpenGL is missing."""
+    pytest.importorskip("imageio_ffmpeg", reason="the render extra is not installed")
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.render import setup_gl
+
+    try:
+        return setup_gl()
+    except UserError as err:
+        pytest.skip(f"no headless OpenGL: {err}")

@@ -6,6 +6,7 @@ initialised, then randomised, parameters saved through mjxmimic.runs.checkpoint;
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -17,18 +18,18 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjxmimic.runs import checkpoint
-from mjxmimic.portable import policy_file as policy_format
-from mjxmimic.runs import export, folder
-from mjxmimic.motion import library as motion
-from mjxmimic.core import quat
-from mjxmimic.core import config as config_lib
 from mjxmimic.cli import main as cli_main
-from mjxmimic.envs.mjx_env import make_env
+from mjxmimic.core import config as config_lib
+from mjxmimic.core import quat
+from mjxmimic.core.errors import UserError
 from mjxmimic.envs.cpu_env import CpuEnv
+from mjxmimic.envs.mjx_env import make_env
+from mjxmimic.learn.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
+from mjxmimic.motion import library as motion
+from mjxmimic.portable import policy_file as policy_format
 from mjxmimic.portable.playback import evaluate
 from mjxmimic.portable.policy_numpy import NumpyPolicy
-from mjxmimic.learn.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
+from mjxmimic.runs import checkpoint, export, folder
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -305,6 +306,29 @@ def test_export_round_trip(run, policy_file, config, env):
     assert pf.clip().loop == clip.loop and pf.clip().name == clip.name
 
 
+def test_export_carries_the_value_network(run, policy_file, env, config):
+    """The file's value network, run in numpy, is the run's JAX value network (normaliser
+    included); an older file without it still plays and says what it lacks."""
+    pf = policy_format.read(policy_file)
+    assert pf.has_value() and pf.manifest["value"]["discount"] == config.ppo.discounting
+    assert pf.manifest["value"]["hidden_sizes"] == list(config.ppo.value_hidden)
+    ts = run["ts"]
+    networks = make_networks(env.observation_size, env.action_size, config)
+    obs = (np.asarray(ts.normalizer.mean) + np.asarray(ts.normalizer.std)
+           * np.random.default_rng(5).normal(size=(64, env.observation_size))).astype(np.float32)
+    want = np.asarray(jax.jit(networks.value_network.apply)(ts.normalizer, ts.params.value, jnp.asarray(obs)))
+    got = pf.value()(obs)
+    assert got.shape == (64,) and np.std(want) > 1e-3
+    np.testing.assert_allclose(got, want, atol=1e-4)
+    assert pf.value()(obs[0]) == pytest.approx(float(want[0]), abs=1e-4)
+    old = dataclasses.replace(pf, params={k: v for k, v in pf.params.items() if k != "value"})
+    old.manifest = {k: v for k, v in pf.manifest.items() if k != "value"}
+    back = policy_format.read(policy_format.write_npz(old, policy_file.parent / "old.npz"))
+    assert not back.has_value() and back.policy()(obs[0]).shape == (env.action_size,)
+    with pytest.raises(UserError, match="lacks its value network.*re-export"):
+        back.value()
+
+
 def test_onnx_export_runs_the_same_function(run, tmp_path):
     onnx = pytest.importorskip("onnx")
     from onnx.reference import ReferenceEvaluator
@@ -312,8 +336,9 @@ def test_onnx_export_runs_the_same_function(run, tmp_path):
     out, pf = export.export_run(run["dir"], tmp_path / "policy.onnx", fmt="onnx")
     model = onnx.load(str(out))
     obs = np.random.default_rng(4).normal(size=(16, 227)).astype(np.float32)
-    (action,) = ReferenceEvaluator(model).run(None, {"obs": obs})
+    action, value = ReferenceEvaluator(model).run(None, {"obs": obs})
     np.testing.assert_allclose(action, pf.policy()(obs), atol=1e-5)
+    np.testing.assert_allclose(value[:, 0], pf.value()(obs), atol=1e-4)
     back = policy_format.read(out)
     assert back.manifest == pf.manifest
     for key, value in pf.arrays().items():

@@ -195,23 +195,3 @@ def test_render_stops_at_the_end_of_a_clip_that_does_not_loop(policy_file, chara
     assert result.returncode == 0, result.stderr
     assert "did not fall" in result.stdout
     assert len(read_frames(out)) < 4 * 30 / 2
-
-
-def test_render_a_composite_names_its_experts(tmp_path, character, capsys):
-    """A composite of two random-weight experts renders through `mjxmimic render`, which lists
-    when each expert played."""
-    import dataclasses
-
-    from mjxmimic import cli
-    from mjxmimic.motion.clip import load_clip_source
-    from mjxmimic.portable import composite
-    from test_composite import _expert
-
-    walk = load_clip_source("slow_walk", character)
-    squat = dataclasses.replace(load_clip_source("squat", character), loop=False)
-    path = composite.write(composite.compose([_expert(character, walk), _expert(character, squat, seed=1)]),
-                           tmp_path / "c.npz")
-    out = tmp_path / "c.png"
-    assert cli.main(["render", str(path), "--out", str(out), "--seconds", "1", "--push", "300@0.2",
-                     "--width", "64", "--height", "48"]) == 0
-    assert out.stat().st_size > 0 and "experts: " in capsys.readouterr().out

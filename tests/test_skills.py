@@ -110,15 +110,9 @@ def test_parse_sequence():
     assert parse_sequence("a:1,b:2.5,a:0.5", ["a", "b"]) == [(0, 1.0), (1, 2.5), (0, 0.5)]
 
 
-def test_render_a_skill_sequence(skilled_file, tmp_path):
-    pytest.importorskip("imageio_ffmpeg", reason="the render extra is not installed")
-    from mjxmimic.core.errors import UserError
-    from mjxmimic.portable.render import render_policy, setup_gl
+def test_render_a_skill_sequence(skilled_file, tmp_path, headless_video):
+    from mjxmimic.portable.render import render_policy
 
-    try:
-        setup_gl()
-    except UserError as err:
-        pytest.skip(f"no headless OpenGL: {err}")
     pf = policy_file.read(skilled_file)
     info = render_policy(pf, tmp_path / "skills.mp4", skill_sequence="slow_walk:0.2,squat:0.2", width=160, height=128)
     steps = 2 * round(0.2 * pf.config().env.control_hz)

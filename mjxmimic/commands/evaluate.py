@@ -4,6 +4,8 @@ Evaluates one of the run's checkpoints (the latest unless --checkpoint) by the N
 (mjxmimic.runs.evaluate_run), which writes RUN/eval_<checkpoint>.json (the training's eval.json
 stays), and prints a short table (or the JSON with --json). With --push it runs
 DeepMimic's Table 6 push test instead (mjxmimic.runs.push_eval) and writes RUN/push.json.
+Given a composite file (`mjxmimic compose`), it measures the composite's recovery rate over
+--knockdowns N knock-downs on MJX (mjxmimic.runs.composite_eval, mjxmimic.task.recovery).
 """
 
 from __future__ import annotations
@@ -25,6 +27,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
     parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
+    composite = parser.add_argument_group("composite files (mjxmimic compose): the recovery rate on MJX")
+    composite.add_argument("--knockdowns", type=int, default=50, help="knock-downs to measure over (default 50)")
+    composite.add_argument("--force", type=float, default=None,
+                           help="the knock-down push in newtons (default mjxmimic.task.recovery.DEFAULT_FORCE_N)")
+    composite.add_argument("--push-direction", choices=["forward", "sideways", "backward", "random"], default=None,
+                           help="of the knock-down pushes, from the character's facing (default random)")
+    composite.add_argument("--batch", type=int, default=64, help="trials vmapped at once (default 64)")
+    composite.add_argument("--expert", metavar="NAME", default=None,
+                           help="the expert the trials start in (default: the first looping one)")
+    composite.add_argument("--temperature", type=float, default=None, help="override the file's gate temperature")
 
 # DeepMimic's Table 6 (N, forward / sideways), policies trained without pushes.
 PAPER_PUSH_N = {"walk": (240, 300), "run": (720, 300), "backflip": (440, 100), "spinkick": (690, 600),
@@ -74,7 +86,29 @@ def print_push_table(title: str, result: dict) -> None:
         print(f"  {name:<9} {result[f'push_{name}_n']:7.0f} N{beside}")
 
 
+def _run_composite(args: argparse.Namespace) -> int:
+    from mjxmimic.commands.composite_report import check_knockdowns, print_recovery
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable import composite
+    from mjxmimic.runs.composite_eval import recovery_rate
+
+    force, direction = check_knockdowns(args)
+    if args.batch < 1:
+        raise UserError(f"--batch {args.batch}: must be at least 1")
+    say = None if args.json else (lambda i, k, r: print(f"mjxmimic eval: {i + 1} trials, {k} knock-downs, "
+                                                        f"{r} recovered", file=sys.stderr, flush=True))
+    result = recovery_rate(composite.read(args.run_dir), args.knockdowns, force, direction,
+                           0 if args.seed is None else args.seed, args.batch, expert=args.expert,
+                           temperature=args.temperature, progress=say)
+    print_recovery(result, args.json)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    from mjxmimic.portable.composite import is_composite
+
+    if is_composite(args.run_dir):
+        return _run_composite(args)
     if args.push:
         return _run_push(args)
     from mjxmimic.runs.evaluate_run import evaluate_run

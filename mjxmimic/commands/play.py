@@ -12,6 +12,10 @@ errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
 --push runs DeepMimic's Table 6 push test instead (mjxmimic.portable.push_playback), as
 `mjxmimic eval RUN --push` does on MJX.
+A composite file (`mjxmimic compose`) plays one run of --seconds (optionally pushed with
+--push-once FORCE@TIME) and reports which expert ran when; with --knockdowns N it measures the
+recovery rate (mjxmimic.task.recovery) on the CPU instead, and with --episodes N each clip's NR
+with its own expert and under the gate (mjxmimic.portable.composite.clip_nr).
 """
 
 from __future__ import annotations
@@ -39,13 +43,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
     parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
-    parser.add_argument("--knockdowns", type=int, default=50,
-                        help="a composite file: knock-downs of its recovery test (default 50)")
-    parser.add_argument("--push-force", type=float, default=1000.0,
-                        help="a composite file: the knock-down push on the pelvis, N for 0.2 s (default 1000)")
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a policy trained on a dataset with the skill observation: switch the skill it "
                              "follows, e.g. \"walk:4,run:4,walk:4\" (one run, no reset between skills)")
+    composite = parser.add_argument_group("composite files (mjxmimic compose)")
+    composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
+    composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
+    composite.add_argument("--expert", metavar="NAME", default=None,
+                           help="the expert to start in (default: the first looping one)")
+    composite.add_argument("--temperature", type=float, default=None, help="override the file's gate temperature")
+    composite.add_argument("--push-once", metavar="FORCE@TIME", default=None,
+                           help="push the pelvis with FORCE newtons for 0.2 s at TIME seconds")
+    composite.add_argument("--push-direction", choices=["forward", "sideways", "backward", "random"],
+                           default=None, help="of --push-once (default forward) or of the knock-downs (default random)")
+    composite.add_argument("--knockdowns", type=int, default=None,
+                           help="the recovery rate over this many knock-downs instead (mjxmimic.task.recovery)")
+    composite.add_argument("--force", type=float, default=None,
+                           help="the knock-down push in newtons (default mjxmimic.task.recovery.DEFAULT_FORCE_N)")
 
 
 def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
@@ -201,8 +215,9 @@ def run(args: argparse.Namespace) -> int:
     from mjxmimic.runs.folder import load_policy_file
 
     if composite.is_composite(args.policy):
-        return _recovery(args, composite.read(args.policy))
+        from mjxmimic.commands import composite_report
 
+        return composite_report.play(args, composite.read(args.policy))
     pf = load_policy_file(args.policy)
     character = pf.character()
     clips = pf.clips()
@@ -273,23 +288,4 @@ def run(args: argparse.Namespace) -> int:
     for key, value in rows:
         print(f"  {key:<{width}}  {value}")
     sys.stdout.flush()
-    return 0
-
-
-def _recovery(args: argparse.Namespace, comp) -> int:
-    """A composite file: its recovery test on MuJoCo C (mjxmimic.portable.composite)."""
-    from mjxmimic.core.errors import UserError
-    from mjxmimic.portable import composite
-
-    if args.knockdowns < 1:
-        raise UserError(f"--knockdowns {args.knockdowns}: must be at least 1")
-    out = composite.recovery_test(comp, args.knockdowns, args.push_force, 0 if args.seed is None else args.seed)
-    out["composite"] = str(args.policy)
-    if args.json:
-        print(json.dumps(out))
-        return 0
-    shares = ", ".join(f"{k} {v:.0%}" for k, v in out["expert_time_share"].items())
-    median = "-" if out["median_recovery_s"] is None else f"{out['median_recovery_s']:.2f} s"
-    print(f"{args.policy}: {out['knockdowns']} knock-downs in {out['pushes']} pushes of {out['force_n']:.0f} N; "
-          f"recovered {out['recovery_rate']:.0%} (median {median} from down to walking); time: {shares}")
     return 0

@@ -6,6 +6,9 @@ reference motion as a translucent copy of the character (a RUN folder without po
 its best checkpoint, or --checkpoint); --push FORCE@TIME pushes the pelvis for
 0.2 s (the push test's push, a red arrow in the video) to show the recovery. POLICY is an exported file; a RUN folder
 uses RUN/policy.npz, or its latest checkpoint when there is none (that path imports JAX).
+A composite file (`mjxmimic compose`) renders --seconds (default 10) of the gate's play from
+--expert, with the active expert's name on every frame: `--push 600@2` shows a knock-down, the
+getup and the walk again.
 Rendering is offscreen: EGL or OSMesa (mjxmimic.portable.render says which packages); videos need the
 "render" extra (imageio, imageio-ffmpeg).
 """
@@ -33,8 +36,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="for a RUN folder without policy.npz: which checkpoint (default: the best)")
     parser.add_argument("--push", metavar="FORCE@TIME",
                         help="push the pelvis with FORCE newtons for 0.2 s from TIME seconds into the episode")
-    parser.add_argument("--push-direction", choices=["forward", "sideways"], default="forward",
-                        help="along the character's facing, or to its left (default forward)")
+    parser.add_argument("--push-direction", choices=["forward", "sideways", "backward"], default="forward",
+                        help="along the character's facing, to its left, or against its facing (default forward)")
+    parser.add_argument("--expert", metavar="NAME", default=None,
+                        help="a composite file: the expert to start in (default: the first looping one)")
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a dataset policy with the skill observation: switch skills, e.g. \"walk:4,run:4\"")
 
@@ -42,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def parse_push(text: str, direction: str) -> tuple[float, float, float]:
     """'300@1.5' -> (300 N, at 1.5 s, the direction's turn from the facing)."""
     from mjxmimic.core.errors import UserError
-    from mjxmimic.task.push_protocol import DIRECTIONS
+    from mjxmimic.task.recovery import DIRECTIONS
 
     try:
         force, at = (float(part) for part in text.split("@"))
@@ -61,6 +66,18 @@ def _check_size(width: int, height: int) -> None:
             raise UserError(f"{name} {v}: must be a positive multiple of 16 (video encoding)")
 
 
+def _render_composite(args: argparse.Namespace, c, push) -> int:
+    from mjxmimic.portable.render import render_composite
+
+    info = render_composite(c, args.out, ghost=args.ghost, seconds=args.seconds or 10.0, start=args.start,
+                            expert=args.expert, push=push, width=args.width, height=args.height)
+    print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s at {info['fps']:.0f} fps, "
+          f"{args.out.stat().st_size / 1024:.0f} KiB; experts: "
+          + ", ".join(f"{seg['expert']} {seg['from_s']:.1f}-{seg['to_s']:.1f} s" for seg in info["timeline"][:12])
+          + (" ..." if len(info["timeline"]) > 12 else "") + f" (MUJOCO_GL={info['gl']})")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.core.errors import UserError
     from mjxmimic.portable.render import check_video_path, render_policy, setup_gl
@@ -75,14 +92,7 @@ def run(args: argparse.Namespace) -> int:
     from mjxmimic.portable import composite
 
     if composite.is_composite(args.source):
-        from mjxmimic.portable.render import render_composite
-
-        info = render_composite(composite.read(args.source), args.out, ghost=args.ghost, start=args.start,
-                                seconds=args.seconds or 8.0, width=args.width, height=args.height, push=push)
-        switches = ", ".join(f"{name} at {t:.1f} s" for t, name in info["experts"])
-        print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s; experts: {switches} "
-              f"(MUJOCO_GL={info['gl']})")
-        return 0
+        return _render_composite(args, composite.read(args.source), push)
     pf = load_policy_file(args.source, export_if_missing=True, checkpoint=args.checkpoint)
     clip = None
     if args.clip is not None:

@@ -9,6 +9,9 @@ npz format (`numpy.load(path)`, no pickles), format "mjxmimic-policy" version 1.
     policy/hidden_<i>/kernel    (in, out) float32 for i = 0 .. L: relu after every layer but the
     policy/hidden_<i>/bias      (out,)  float32   last; the last has 2 * action_size outputs
                                                   (loc, scale); the action is tanh(loc)
+    value/hidden_<i>/kernel     (in, out) float32 the value network (the same normaliser, relu after
+    value/hidden_<i>/bias       (out,)  float32   every layer but the last, which has 1 output: V);
+                                                  absent from files exported before it was carried
     clip/qpos                   (frames, nq) float64  the reference clip, MuJoCo qpos layout, z-up
     clip/durations              (frames,) float64     seconds from each frame to the next
     clip/<i>/qpos, .../durations                      a dataset's clips after the first (i = 1 ..)
@@ -28,6 +31,7 @@ The manifest (JSON object):
     reward      kind
     observation size and layout (ordered parts with sizes and the bodies they run over)
     policy      hidden_sizes, activation, output, normalizer, dtype
+    value       (when the value network is carried) hidden_sizes, output, normalizer, discount
     training    run folder, checkpoint (env_steps), best (whether it is the run's best-evaluated
                 checkpoint), samples, train_seconds, and `eval`: the training-side (MJX)
                 evaluation of that checkpoint: nr, fall_rate, survival_s, episodes, seed and the
@@ -38,7 +42,8 @@ The manifest (JSON object):
     arrays      every array key with its shape and dtype
 
 ONNX (mjxmimic.portable.policy_onnx; optional, needs the `onnx` package): graph input "obs"
-[N, obs] float32, output "action" [N, act] = tanh(loc), the normaliser and the MLP as ONNX nodes;
+[N, obs] float32, output "action" [N, act] = tanh(loc) (and "value" [N, 1] where the value network
+is carried), the normaliser and the MLPs as ONNX nodes;
 the manifest, the character XML and the clips ride in the model's metadata_props ("mjxmimic/manifest", "mjxmimic/character_xml",
 "mjxmimic/clip", and "mjxmimic/clips" for a dataset's others), so an .onnx file plays back as well.
 
@@ -65,12 +70,12 @@ from mjxmimic import __version__
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.character import BALL, Character, default_fall_contact, load_character
 from mjxmimic.core.errors import UserError
-from mjxmimic.portable.policy_numpy import NumpyPolicy
+from mjxmimic.portable.policy_numpy import NumpyPolicy, NumpyValue, ordered_layers
 
 FORMAT = "mjxmimic-policy"
 FORMAT_VERSION = 1
 FORMATS = ("npz", "onnx")
-NETWORKS = ("policy", "value")  # the MLPs a file may hold, each as NET/hidden_i/{kernel,bias}
+NETWORKS = ("policy", "value")  # array name prefixes of the networks' layers
 
 
 # ---------------------------------------------------------------------------------- the contents
@@ -81,9 +86,8 @@ class PolicyFile:
     """The contents of an exported policy (either format)."""
 
     manifest: dict[str, Any]
-    # {"normalizer": {"mean", "std"}, "policy": {"hidden_i": {"kernel", "bias"}}, and, in files
-    # exported since composites exist, "value": the same for the value network}
-    params: dict[str, Any]
+    params: dict[str, Any]  # {"normalizer": {"mean", "std"}, "policy": {"hidden_i": {"kernel", "bias"}},
+    #                          and "value" (the same layout) where the file carries the value network}
     character_xml: str
     clip_qpos: np.ndarray
     clip_durations: np.ndarray
@@ -94,6 +98,16 @@ class PolicyFile:
     def policy(self) -> NumpyPolicy:
         """The deterministic policy as a numpy function."""
         return NumpyPolicy.from_params(self.params, _heightmap_shape(self.config()))
+
+    def has_value(self) -> bool:
+        return bool(self.params.get("value"))
+
+    def value(self) -> NumpyValue:
+        """The value network V(obs) as a numpy function (UserError when the file lacks it)."""
+        if not self.has_value():
+            raise UserError(f"{self.path}: the policy file lacks its value network (exported before it was "
+                            f"carried); re-export it with `mjxmimic export RUN`")
+        return NumpyValue(self.params)
 
     def config(self) -> config_lib.Config:
         """The run's config (playback rebuilds its environment settings from it)."""
@@ -139,7 +153,7 @@ class PolicyFile:
         out = {"normalizer/mean": np.asarray(self.params["normalizer"]["mean"]),
                "normalizer/std": np.asarray(self.params["normalizer"]["std"])}
         for net in NETWORKS:
-            for name, layer in self.params.get(net, {}).items():
+            for name, layer in (self.params.get(net) or {}).items():
                 out[f"{net}/{name}/kernel"] = np.asarray(layer["kernel"])
                 out[f"{net}/{name}/bias"] = np.asarray(layer["bias"])
         out["clip/qpos"] = np.asarray(self.clip_qpos)
@@ -287,9 +301,18 @@ def build_manifest(config: config_lib.Config, character: Character, character_xm
             "normalizer": "(obs - mean) / std, no clipping",
             "dtype": "float32",
         },
+        **({"value": _value_entry(config, params)} if params.get("value") else {}),
         "training": training or {},
         "config": config_lib.to_dict(config),
     }
+
+
+def _value_entry(config: config_lib.Config, params: dict[str, Any]) -> dict[str, Any]:
+    layers = ordered_layers(params, "value")
+    return {"hidden_sizes": [int(b.shape[0]) for _, b in layers[:-1]],
+            "output": "1 number: the state value, the discounted return the policy expects from here",
+            "normalizer": "the policy's: (obs - mean) / std, no clipping",
+            "discount": config.ppo.discounting}
 
 
 def make_policy_file(config: config_lib.Config, character: Character, clips: Any, params: dict[str, Any],
@@ -321,12 +344,12 @@ def make_policy_file(config: config_lib.Config, character: Character, clips: Any
 
 
 def _as_numpy(params: dict[str, Any]) -> dict[str, Any]:
-    return {
-        "normalizer": {k: np.asarray(params["normalizer"][k], np.float32) for k in ("mean", "std")},
-        **{net: {name: {k: np.asarray(layer[k], np.float32) for k in ("kernel", "bias")}
-                 for name, layer in params[net].items()}
-           for net in NETWORKS if net in params},
-    }
+    out = {"normalizer": {k: np.asarray(params["normalizer"][k], np.float32) for k in ("mean", "std")}}
+    for net in NETWORKS:
+        if params.get(net):
+            out[net] = {name: {k: np.asarray(layer[k], np.float32) for k in ("kernel", "bias")}
+                        for name, layer in params[net].items()}
+    return out
 
 
 # ------------------------------------------------------------------------------------ npz files
@@ -362,32 +385,32 @@ def parse_manifest(text: str, path: Path) -> dict[str, Any]:
 
 def params_from_arrays(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     """The nested params back from their flat array names (the same names in npz and ONNX)."""
-    nets: dict[str, dict[str, dict[str, np.ndarray]]] = {"policy": {}}
+    nets: dict[str, dict[str, dict[str, np.ndarray]]] = {net: {} for net in NETWORKS}
     for key, value in arrays.items():
         net, _, rest = key.partition("/")
-        if net in NETWORKS:
+        if net in nets and rest.count("/") == 1:
             layer, part = rest.split("/")
-            nets.setdefault(net, {}).setdefault(layer, {})[part] = value
-    return {"normalizer": {"mean": arrays["normalizer/mean"], "std": arrays["normalizer/std"]}, **nets}
+            nets[net].setdefault(layer, {})[part] = value
+    out = {"normalizer": {"mean": arrays["normalizer/mean"], "std": arrays["normalizer/std"]},
+           "policy": nets["policy"]}
+    if nets["value"]:
+        out["value"] = nets["value"]
+    return out
 
 
-def load_npz(path: Path) -> dict[str, np.ndarray]:
-    """Every array of an npz file; an unreadable file is a one-line UserError."""
+def load_arrays(path: Path, what: str = "an npz policy file") -> dict[str, np.ndarray]:
+    """Every array of an npz file (no pickles); a one-line UserError when it cannot be read."""
     try:
         with np.load(path, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError) as err:
-        raise UserError(f"{path}: cannot read as an npz policy file ({err})") from None
+        raise UserError(f"{path}: cannot read as {what} ({err})") from None
 
 
 def read_npz(path: Path) -> PolicyFile:
     """An npz policy file; anything else is a one-line UserError."""
     path = Path(path)
-    return from_arrays(load_npz(path), path)
-
-
-def from_arrays(data: dict[str, np.ndarray], path: Path) -> PolicyFile:
-    """A policy file's contents from its npz arrays (`path` names it in errors)."""
+    data = load_arrays(path)
     for key in ("manifest", "character_xml", "normalizer/mean", "normalizer/std", "clip/qpos", "clip/durations"):
         if key not in data:
             raise UserError(f"{path}: not an mjxmimic policy file (no '{key}' array)")

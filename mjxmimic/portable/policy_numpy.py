@@ -58,10 +58,12 @@ def ordered_layers(params: Mapping[str, Any], net: str) -> list[tuple[Any, Any]]
     return [(tree[n]["kernel"], tree[n]["bias"]) for _, n in names]
 
 
-def _mlp(obs: Any, mean: Any, std: Any, layers: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-    h = (np.asarray(obs, np.float64) - mean) / std
+def mlp(obs: Any, mean: Any, std: Any, layers: list[tuple[Any, Any]], xp: Any = np) -> Any:
+    """The normalised observation through relu layers, the last one linear (numpy in float64, or
+    jax.numpy for the composite's gate on MJX)."""
+    h = ((np.asarray(obs, np.float64) if xp is np else obs) - mean) / std
     for kernel, bias in layers[:-1]:
-        h = np.maximum(h @ kernel + bias, 0.0)
+        h = xp.maximum(h @ kernel + bias, 0.0)
     kernel, bias = layers[-1]
     return h @ kernel + bias
 
@@ -82,7 +84,7 @@ class NumpyValue:
 
     def __call__(self, obs: Any) -> np.ndarray:
         """V(obs); obs may be batched (..., observation_size)."""
-        return _mlp(obs, self.mean, self.std, self.layers)[..., 0]
+        return mlp(obs, self.mean, self.std, self.layers)[..., 0]
 
 
 class NumpyPolicy:
@@ -140,7 +142,7 @@ class NumpyPolicy:
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
         z = (np.asarray(obs, np.float64) - self.mean) / self.std
-        return _mlp(self._encode(z) if self.encoder else z, 0.0, 1.0, self.layers)
+        return mlp(self._encode(z) if self.encoder else z, 0.0, 1.0, self.layers)
 
     def _encode(self, z: np.ndarray) -> np.ndarray:
         """[state, heightmap] -> [state, encoding] (the module docstring)."""

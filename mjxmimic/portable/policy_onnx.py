@@ -22,6 +22,23 @@ def onnx_package():
     return onnx
 
 
+def _mlp_nodes(helper, numpy_helper, net: dict, prefix: str, h: str) -> tuple[str, list, list]:
+    """(output name, initializers, nodes) of one MLP: relu after every layer but the last."""
+    inits, nodes = [], []
+    for i in range(len(net)):
+        name = f"hidden_{i}"
+        kernel, bias, out = f"{prefix}/{name}/kernel", f"{prefix}/{name}/bias", f"{prefix}/{name}/out"
+        inits += [numpy_helper.from_array(np.asarray(net[name]["kernel"], np.float32), kernel),
+                  numpy_helper.from_array(np.asarray(net[name]["bias"], np.float32), bias)]
+        nodes += [helper.make_node("MatMul", [h, kernel], [f"{prefix}/{name}/mm"]),
+                  helper.make_node("Add", [f"{prefix}/{name}/mm", bias], [out])]
+        h = out
+        if i < len(net) - 1:
+            nodes.append(helper.make_node("Relu", [h], [f"{prefix}/{name}/relu"]))
+            h = f"{prefix}/{name}/relu"
+    return h, inits, nodes
+
+
 def to_onnx(pf: PolicyFile):
     """An onnx.ModelProto of the deterministic policy, with the manifest in its metadata."""
     onnx = onnx_package()
@@ -36,29 +53,24 @@ def to_onnx(pf: PolicyFile):
              for k in ("mean", "std")]
     nodes = [helper.make_node("Sub", ["obs", "normalizer/mean"], ["centred"]),
              helper.make_node("Div", ["centred", "normalizer/std"], ["h_in"])]
-    h = "h_in"
-    n_layers = len(pf.params["policy"])
-    for i in range(n_layers):
-        name = f"hidden_{i}"
-        layer = pf.params["policy"][name]
-        inits += [numpy_helper.from_array(np.asarray(layer["kernel"], np.float32), f"policy/{name}/kernel"),
-                  numpy_helper.from_array(np.asarray(layer["bias"], np.float32), f"policy/{name}/bias")]
-        nodes += [helper.make_node("MatMul", [h, f"policy/{name}/kernel"], [f"{name}/mm"]),
-                  helper.make_node("Add", [f"{name}/mm", f"policy/{name}/bias"], [f"{name}/out"])]
-        h = f"{name}/out"
-        if i < n_layers - 1:
-            nodes.append(helper.make_node("Relu", [h], [f"{name}/relu"]))
-            h = f"{name}/relu"
+    h, more, extra = _mlp_nodes(helper, numpy_helper, pf.params["policy"], "policy", "h_in")
+    inits += more
+    nodes += extra
     inits += [numpy_helper.from_array(np.array([0], np.int64), "slice/start"),
               numpy_helper.from_array(np.array([act], np.int64), "slice/end"),
               numpy_helper.from_array(np.array([-1], np.int64), "slice/axis")]
     nodes += [helper.make_node("Slice", [h, "slice/start", "slice/end", "slice/axis"], ["loc"]),
               helper.make_node("Tanh", ["loc"], ["action"])]
+    outputs = [helper.make_tensor_value_info("action", TensorProto.FLOAT, ["N", act])]
+    if pf.has_value():  # V(obs) as a second output, [N, 1]
+        v, more, extra = _mlp_nodes(helper, numpy_helper, pf.params["value"], "value", "h_in")
+        inits += more
+        nodes += [*extra, helper.make_node("Identity", [v], ["value"])]
+        outputs.append(helper.make_tensor_value_info("value", TensorProto.FLOAT, ["N", 1]))
     graph = helper.make_graph(
         nodes, "mjxmimic_policy",
         [helper.make_tensor_value_info("obs", TensorProto.FLOAT, ["N", obs])],
-        [helper.make_tensor_value_info("action", TensorProto.FLOAT, ["N", act])],
-        initializer=inits)
+        outputs, initializer=inits)
     model = helper.make_model(graph, producer_name="mjxmimic", producer_version=__version__,
                               opset_imports=[helper.make_opsetid("", 17)])
     model.ir_version = 8

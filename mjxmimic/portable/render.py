@@ -299,7 +299,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         for k in range(limit):
             if k > 0 and k in switches:
                 obs = env.switch(switches[k])
-            force, arrows = _push_at(env, push, k)
+            force, arrows = push_at_step(env, push, k)
             if env.config.task.name:
                 arrows.append(goal_arrow(env))
             s = env.step(policy(obs), external_force=force)
@@ -325,9 +325,9 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
             "gl": os.environ.get("MUJOCO_GL")}
 
 
-def _push_at(env: Any, push: tuple[float, float, float] | None, k: int) -> tuple[Any, list]:
-    """(external force or None, arrows to draw) at control step k of a `push` (force N, time s,
-    turn from the facing) on the pelvis for 0.2 s, as the push test does."""
+def push_at_step(env: Any, push: tuple[float, float, float] | None, k: int) -> tuple[Any, list]:
+    """(external force or None, arrows) of `push` (force N, episode time s, turn from the facing)
+    at control step k: the push test's 0.2 s pelvis push, drawn as a red arrow while it acts."""
     from mjxmimic.core.kinematics import ROOT_BODY
     from mjxmimic.task import push_protocol
 
@@ -342,35 +342,61 @@ def _push_at(env: Any, push: tuple[float, float, float] | None, k: int) -> tuple
     return force, [(head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head, PUSH_RGBA)]
 
 
-def render_composite(comp: Any, out: Path, *, ghost: bool = True, start: float = 0.0, seconds: float = 8.0,
-                     width: int = 640, height: int = 480, push: tuple[float, float, float] | None = None,
-                     seed: int = 0) -> dict[str, Any]:
-    """Video of a composite (mjxmimic.portable.composite) from its first expert's reference state at
-    clip time `start` for `seconds`, the gate choosing the expert at every step (a fall does not end
-    it); the ghost is the playing expert's reference. Returns which expert played when."""
-    from mjxmimic.portable.composite import Gate
+def label(image: np.ndarray, text: str) -> np.ndarray:
+    """`text` written at the image's top left (white on a dark box), through Pillow, which imageio
+    brings; the image unchanged without it."""
+    try:
+        from PIL import Image, ImageDraw
+    except ImportError:
+        return image
+    picture = Image.fromarray(image)
+    draw = ImageDraw.Draw(picture)
+    box = draw.textbbox((8, 8), text)
+    draw.rectangle((box[0] - 4, box[1] - 4, box[2] + 4, box[3] + 4), fill=(20, 20, 20))
+    draw.text((8, 8), text, fill=(255, 255, 255))
+    return np.asarray(picture)
 
-    gate = Gate(comp, seed)
-    env = gate.env
-    scene = Scene(comp.experts[0].character_xml, env.character.nq, ghost, width, height)
-    timeline: list[tuple[float, str]] = []
+
+def render_composite(c: Any, out: Path, *, ghost: bool = True, seconds: float = 10.0, start: float = 0.0,
+                     expert: str | None = None, push: tuple[float, float, float] | None = None, seed: int = 0,
+                     width: int = 640, height: int = 480,
+                     on_frame: Callable[[int], Any] | None = None) -> dict[str, Any]:
+    """Video of a composite (mjxmimic.portable.composite.Composite) run as `mjxmimic play` runs it
+    (the gate every step), the active expert's name and the time written on every frame, the
+    ghost the active expert's reference, `push` drawn as a red arrow. Falls do not end it."""
+    from mjxmimic.portable.composite import Player, timeline
+
+    player = Player(c)
+    env = player.env
+    first = c.start_expert(expert)
+    steps = max(1, round(seconds / env.control_dt))
+    u = np.random.default_rng(seed).uniform(size=steps)
+    scene = Scene(c.experts[0].character_xml, env.character.nq, ghost, width, height)
+    names, info = c.names, {"steps": 0, "experts": []}
 
     def frames():
-        gate.reset(0, start)
-        yield scene.frame(env.data.qpos, env.reference(env.time)[0])
-        for k in range(max(1, round(seconds / env.control_dt))):
-            force, arrows = _push_at(env, push, k)
-            _, expert = gate.step(force)
-            if not timeline or timeline[-1][1] != comp.names[expert]:
-                timeline.append((round(k * env.control_dt, 3), comp.names[expert]))
-            yield scene.frame(env.data.qpos, env.reference(env.time)[0], arrows)
+        player.reset(start, first)
+        ref, _ = env.reference(env.time)
+        yield label(scene.frame(env.data.qpos, ref), f"{names[first]}  0.0 s")
+        for k in range(steps):
+            force, arrows = push_at_step(env, push, k)
+            s, d = player.step(u[k], force)
+            info["steps"] += 1
+            info["experts"].append(int(d.choice))
+            ref, _ = env.reference(env.time)
+            yield label(scene.frame(env.data.qpos, ref, arrows), f"{names[int(d.choice)]}  {(k + 1) * env.control_dt:.1f} s")
+            if on_frame is not None:
+                on_frame(info["steps"])
+            if s.failed:
+                break
 
     try:
         n = write_frames(frames(), out, fps=1.0 / env.control_dt)
     finally:
         scene.close()
     return {"out": str(out), "frames": n, "fps": 1.0 / env.control_dt, "seconds": n * env.control_dt,
-            "experts": timeline, "gl": os.environ.get("MUJOCO_GL")}
+            "steps": info["steps"], "timeline": timeline(names, info["experts"], env.control_dt),
+            "ghost": ghost, "gl": os.environ.get("MUJOCO_GL")}
 
 
 def render_clip(character, clip: Any, out: Path, *, seconds: float | None = None, fps: float = 30.0,

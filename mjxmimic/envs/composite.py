@@ -1,0 +1,188 @@
+"""The composite policy's gate (DeepMimic section 7), written once for numpy and jax.numpy: which
+expert drives the next control step, and at which time of its clip.
+
+The composite env is the ordinary control step (`mjxmimic.envs.step`) on a motion library that
+holds every expert's clip, clip id = expert index; `Motion.clip` is the active expert and
+`Motion.time` its clip time, so the PD targets (residual actions) and the reference follow the
+active expert alone. Before every control step (DeepMimic evaluates the values every step):
+
+1. Each expert e gets its own observation of the current state: the observation terms with the
+   phase of *its* clip at its candidate time (a single-clip expert's skill one-hot is [1]). The
+   candidate time is the active expert's current time for the active expert (it goes on), and for
+   any other expert its entry time: the time whose reference pose is nearest the character's (body
+   positions, axes and velocities relative to the root in the heading frame, over a grid of
+   control-step times), so that a locomotion expert takes over in step with the legs, and a getup
+   where its clip looks like the fallen character rather than always lying flat at its start (its
+   value was learnt from every clip time, by RSI). Measured on the CPU with GPU-trained walk and
+   getups, nearest-pose entry for the getups raised the recovery rate (experiments/composite/).
+2. Each expert's value network grades its observation: V_e.
+3. Softmax over V_e / temperature among the allowed experts, sampled with one uniform number u
+   (inverse CDF, so that the numpy player and MJX pick alike from the same u); temperature 0 is
+   the arg max. A non-looping expert whose clip has just ended is not allowed (no immediate
+   repeat); it may be chosen again once another expert has run a step.
+4. A change of expert sets the clip and its candidate time, and moves the reference root under
+   the character (the root offset); the chosen expert's policy acts on its observation.
+
+Tracking for the recovery rule (mjxmimic.task.recovery) is graded against the active expert's
+reference turned and moved to the character (as a task's reward is), so that a character walking
+again after a getup in a new direction counts as tracking the walk.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from mjxmimic.core.kinematics import ROOT_BODY, Kin
+from mjxmimic.envs import step as step_lib
+from mjxmimic.motion import library as motion_lib
+from mjxmimic.physics.backend import Physics
+from mjxmimic.task import goals
+from mjxmimic.task import observation as obs_terms
+from mjxmimic.task import reward as reward_terms
+
+FINISHED_EPS = 1e-4  # the clip-end tolerance of the control step
+VELOCITY_WEIGHT = 0.1  # seconds: body velocities count as the positions they reach in 0.1 s
+
+
+class Gate(NamedTuple):
+    """Per-composite constants, arrays in the step's xp (from `make_gate`)."""
+
+    loop: Any  # (E,) bool
+    entry_times: Any  # (E, G) candidate entry times of each expert (a grid of control steps)
+    entry_features: Any  # (E, G, D) the reference's pose features at those times
+    entry_valid: Any  # (E, G) bool: grid points within the clip
+    temperature: float  # static
+    stand_height: float  # mean root height of the looping experts' references (m)
+
+
+class Decision(NamedTuple):
+    choice: Any  # int: the expert for the coming step
+    times: Any  # (E,) candidate clip times
+    obs: Any  # (E, obs) each expert's observation
+    values: Any  # (E,) the value estimates
+    probabilities: Any  # (E,) the gate's distribution
+    root_height: Any  # root body centre-of-mass height now (m)
+    pose_error: Any  # mean joint angle (rad) from the active expert's reference, aligned to the character
+
+
+def pose_features(k: Kin, xp: Any) -> Any:
+    """What nearest-pose matching compares: each body's position, x and z axes and (scaled)
+    linear velocity relative to the root, in the heading frame (the observation's 'bodies')."""
+    nb = k.xipos.shape[0] - 1
+    parts = xp.reshape(obs_terms.bodies(k, None, xp), (5, nb, 3))
+    return xp.concatenate([xp.reshape(parts[:3], (-1,)), VELOCITY_WEIGHT * xp.reshape(parts[3], (-1,))])
+
+
+def make_gate(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin], temperature: float) -> Gate:
+    """The gate's constants (numpy) for the experts of `spec.lib`; `kinematics` a numpy one (the
+    CPU physics'). Convert with `to_xp` for MJX."""
+    lib, dt = spec.lib, spec.control_dt
+    count = len(lib.duration)
+    grids = [np.arange(max(1, int(np.ceil(float(lib.duration[e]) / dt - 1e-6)))) * dt for e in range(count)]
+    g = max(len(x) for x in grids)
+    times = np.zeros((count, g), np.float32)
+    valid = np.zeros((count, g), bool)
+    feats, heights = None, []
+    for e, grid in enumerate(grids):
+        for i, t in enumerate(grid):
+            k = kinematics(*motion_lib.sample(lib, e, np.float32(t), np))
+            f = np.asarray(pose_features(k, np), np.float32)
+            if feats is None:
+                feats = np.zeros((count, g, f.shape[0]), np.float32)
+            times[e, i], valid[e, i], feats[e, i] = t, True, f
+            if bool(lib.loop[e]):
+                heights.append(float(k.xipos[ROOT_BODY, 2]))
+    if not heights:
+        raise ValueError("a composite needs at least one looping (locomotion) expert")
+    return Gate(loop=np.asarray(lib.loop, bool), entry_times=times, entry_features=feats, entry_valid=valid,
+                temperature=float(temperature), stand_height=float(np.mean(heights)))
+
+
+def to_xp(gate: Gate, xp: Any) -> Gate:
+    return gate._replace(**{k: xp.asarray(v) for k, v in gate._asdict().items()
+                            if k in ("loop", "entry_times", "entry_features", "entry_valid")})
+
+
+def probabilities(values: Any, temperature: float, allowed: Any, xp: Any) -> Any:
+    """softmax(values / temperature) over the allowed experts (0 elsewhere); temperature 0: the
+    allowed arg max (the first of ties)."""
+    values = xp.asarray(values, xp.float32)
+    if temperature <= 0:
+        masked = xp.where(allowed, values, -xp.inf)
+        return (xp.arange(values.shape[-1]) == xp.argmax(masked)).astype(xp.float32)
+    z = xp.where(allowed, values / temperature, -xp.inf)
+    z = z - xp.max(z)
+    p = xp.where(allowed, xp.exp(z), 0.0)
+    return p / xp.sum(p)
+
+
+def sample(p: Any, u: Any, xp: Any) -> Any:
+    """The expert that uniform u in [0, 1) picks from distribution p (inverse CDF); never one of
+    probability 0."""
+    cdf = xp.cumsum(p)
+    index = xp.sum((cdf <= u * cdf[-1]).astype(xp.int32))
+    last = xp.max(xp.where(p > 0, xp.arange(p.shape[0]), 0))  # rounding: stay among the possible
+    return xp.minimum(index, last)
+
+
+def finished(gate: Gate, lib: motion_lib.MotionLib, motion: step_lib.Motion, xp: Any) -> Any:
+    """The active expert is non-looping and its clip has ended."""
+    return ~gate.loop[motion.clip] & (motion.time >= lib.duration[motion.clip] - FINISHED_EPS)
+
+
+def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any:
+    """(E, obs): every expert's observation of the state `k`, each with its own clip's phase at its
+    candidate time."""
+    one = xp.ones(1, xp.float32)
+    rows = [obs_terms.observe(spec.observations, k, motion_lib.phase(spec.lib, e, times[e], xp), xp, one)
+            for e in range(len(spec.lib.duration))]
+    return xp.stack(rows)
+
+
+def entry_times(gate: Gate, k: Kin, xp: Any) -> Any:
+    """(E,) where each expert would start now: its grid time of the nearest reference pose."""
+    f = pose_features(k, xp)
+    d = xp.sum((gate.entry_features - f) ** 2, axis=-1)
+    d = xp.where(gate.entry_valid, d, xp.inf)
+    best = xp.argmin(d, axis=-1)
+    return xp.take_along_axis(gate.entry_times, best[:, None], axis=1)[:, 0]
+
+
+def tracking_error(spec: step_lib.Spec, physics: Physics, sim: Kin, qpos: Any, motion: step_lib.Motion,
+                   xp: Any) -> Any:
+    """Mean joint angle (rad) from the active expert's reference at its time, turned and moved to
+    the character."""
+    ref_qpos, ref_qvel = motion_lib.sample(spec.lib, motion.clip, motion.time, xp)
+    ref = physics.kinematics(*goals.align_reference(ref_qpos, ref_qvel, qpos, xp))
+    return reward_terms.tracking_errors(spec.layout, sim, ref, xp)["error/pose"]
+
+
+def decide(spec: step_lib.Spec, gate: Gate, physics: Physics, qpos: Any, qvel: Any, motion: step_lib.Motion,
+           values_of: Callable[[Any], Any], u: Any) -> Decision:
+    """The gate's decision for the coming step (module docstring). values_of((E, obs)) -> (E,)."""
+    xp = physics.xp
+    k = physics.kinematics(qpos, qvel)
+    count = len(spec.lib.duration)
+    active = xp.arange(count) == motion.clip
+    times = xp.where(active, motion.time, entry_times(gate, k, xp)).astype(xp.float32)
+    obs = expert_observations(spec, k, times, xp)
+    values = xp.asarray(values_of(obs), xp.float32)
+    allowed = ~(active & finished(gate, spec.lib, motion, xp))
+    p = probabilities(values, gate.temperature, allowed, xp)
+    return Decision(choice=sample(p, u, xp), times=times, obs=obs, values=values, probabilities=p,
+                    root_height=k.xipos[ROOT_BODY, 2], pose_error=tracking_error(spec, physics, k, qpos, motion, xp))
+
+
+def switch(spec: step_lib.Spec, motion: step_lib.Motion, decision: Decision, qpos: Any, xp: Any) -> step_lib.Motion:
+    """The motion state with the chosen expert active: unchanged when it already was; else its
+    clip at its entry time, the reference root moved under the character."""
+    choice = decision.choice
+    same = choice == motion.clip
+    t = decision.times[choice]
+    ref_qpos, _ = motion_lib.sample(spec.lib, choice, t, xp)
+    offset = xp.where(same, motion.root_offset, (qpos[0:2] - ref_qpos[0:2]).astype(motion.root_offset.dtype))
+    return motion._replace(clip=xp.where(same, motion.clip, choice).astype(xp.asarray(motion.clip).dtype),
+                           time=xp.where(same, motion.time, t).astype(xp.float32), root_offset=offset)
