@@ -302,30 +302,37 @@ def test_two_clip_library_draws_both_and_grades_each_env_against_its_own_clip(en
 
 
 def test_push_event_moves_the_root_the_same_way_on_mjx_and_mujoco_c(env):
-    """env.events=push: at the start of the second interval a 0.2 s horizontal push of 400 N on
-    the root; the root speeds up along the push direction, by the same amount on both backends."""
+    """env.events=push with a drawn force in [300, 600] N and a start jittered by up to 0.2 s: in
+    the second interval a 0.2 s horizontal push on the root; the root speeds up along the push
+    direction by about force x dt / mass, by the same amount on both backends."""
     from mjxmimic.envs.cpu_env import CpuEnv
-    from mjxmimic.task.events import GOLDEN
+    from mjxmimic.task import events
 
-    cfg = apply_overrides(env.config, {"env.events": "push", "env.push_force_n": 400.0,
-                                       "env.push_interval_s": 0.5, "env.solver_iterations": 30,
-                                       "env.ls_iterations": 30})
+    cfg = apply_overrides(env.config, {"env.events": "push", "env.push_force_n": 300.0, "env.push_force_max_n": 600.0,
+                                       "env.push_interval_s": 0.5, "env.push_interval_jitter_s": 0.2,
+                                       "env.solver_iterations": 30, "env.ls_iterations": 30})
     pushed = ImitationEnv(cfg, env.character, env.clips)
     trans = jax.jit(pushed.transition)
     state = jax.jit(pushed.reset_at)(jax.random.PRNGKey(0), 0.3)
+    seed = float(state.info["event_seed"])
+    wrench = [events.push(cfg.env, k / 30, seed, env.model.nbody, np)[events.ROOT_BODY] for k in range(30)]
+    pushing = [k for k in range(30) if np.any(wrench[k][:2] != 0)]
+    first = pushing[0]  # the jittered start: 0.5 s to 0.7 s in
+    assert 15 <= first <= 21 and pushing == list(range(first, first + 6))  # 0.2 s = 6 steps
+    force = np.linalg.norm(wrench[first][:2])
+    assert 300.0 <= force <= 600.0
     at = lambda steps: state.replace(info=dict(state.info, steps=jnp.asarray(steps, jnp.int32)))
     zero = jnp.zeros(env.action_size)
-    # 15 steps = 0.5 s in: the second interval's push; 14 steps: still the first interval, no push
-    # (the step count changes nothing else in a control step far from the time limit)
-    mjx_pushed = np.asarray(trans(at(15), zero).pipeline_state.qvel[0:2])
-    gain = mjx_pushed - np.asarray(trans(at(14), zero).pipeline_state.qvel[0:2])
-    turn = 2 * np.pi * ((float(state.info["event_seed"]) + GOLDEN) % 1.0)
-    along = gain @ np.array([np.cos(turn), np.sin(turn)])
-    assert 0.15 < along < 0.5 and np.linalg.norm(gain) < 1.2 * along  # ~ 400 N x 0.033 s / 45 kg = 0.3
+    # the step count changes nothing else in a control step far from the time limit
+    mjx_pushed = np.asarray(trans(at(first), zero).pipeline_state.qvel[0:2])
+    gain = mjx_pushed - np.asarray(trans(at(first - 1), zero).pipeline_state.qvel[0:2])
+    along = gain @ wrench[first][:2] / force
+    expected = force / 30 / 45.0  # force x dt / the humanoid's 45 kg
+    assert 0.5 * expected < along < 1.7 * expected and np.linalg.norm(gain) < 1.2 * along
 
     cpu = CpuEnv(cfg, env.character, env.clips[0])
     q, v = (np.asarray(x) for x in (state.pipeline_state.qpos, state.pipeline_state.qvel))
-    cpu.set_state(q, v, 0.3, steps=15, event_seed=float(state.info["event_seed"]))
+    cpu.set_state(q, v, 0.3, steps=first, event_seed=seed)
     cpu.step(np.zeros(env.action_size))
     np.testing.assert_allclose(cpu.data.qvel[0:2], mjx_pushed, atol=0.02)
 

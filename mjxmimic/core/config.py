@@ -52,8 +52,16 @@ class EnvConfig:
     observations: str = "phase,root_height,bodies"  # observation terms, in order (mjxmimic.task.observation)
     events: str = ""  # episode events, e.g. "push" (mjxmimic.task.events); none by default
     push_force_n: float = 0.0  # horizontal force on the root (N)
+    # > 0: each push's force is drawn in [push_force_n, push_force_max_n] (mjxmimic.task.events);
+    # 0: every push is push_force_n
+    push_force_max_n: float = 0.0
     push_duration_s: float = 0.2
     push_interval_s: float = 2.0  # one push every interval, from the second on
+    push_interval_jitter_s: float = 0.0  # each push starts up to this long after its interval's start
+    # Domain randomisation (mjxmimic.physics.randomise), per episode; (1, 1) = off. Factors (lo,
+    # hi): one for every geom's sliding friction, one per body for its mass and inertia.
+    friction_range: tuple[float, ...] = (1.0, 1.0)
+    mass_range: tuple[float, ...] = (1.0, 1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -240,7 +248,7 @@ def _coerce(value: str, typ: Any, key: str) -> Any:
             return value
         if typing.get_origin(typ) is tuple:
             parts = [p for p in value.strip("()[] ").split(",") if p.strip()]
-            return tuple(int(p) for p in parts)
+            return tuple(typing.get_args(typ)[0](p) for p in parts)
     except ValueError:
         pass
     name = getattr(typ, "__name__", str(typ))
@@ -267,8 +275,8 @@ def apply_overrides(config: Config, overrides: dict[str, Any]) -> Config:
         typ = types[name]
         if isinstance(value, str) and typ is not str:
             value = _coerce(value, typ, key)
-        elif typing.get_origin(typ) is tuple and isinstance(value, list):
-            value = tuple(value)
+        elif typing.get_origin(typ) is tuple and isinstance(value, (list, tuple)):
+            value = _coerce(",".join(str(v) for v in value), typ, key)  # JSON lists, Python tuples
         elif typ is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         sections[section] = dataclasses.replace(sections[section], **{name: value})
@@ -296,6 +304,10 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
     return apply_overrides(config, overrides or {})
 
 
+def _scale_range_ok(factors: tuple[float, ...]) -> bool:
+    return len(factors) == 2 and 0 < factors[0] <= factors[1] < float("inf")
+
+
 def validate(config: Config) -> None:
     """Reject values that would fail later, naming the key."""
     env, ppo, run = config.env, config.ppo, config.run
@@ -313,7 +325,13 @@ def validate(config: Config) -> None:
         (env.action_scale > 0, "env.action_scale", "must be positive"),
         (env.push_force_n >= 0, "env.push_force_n", "must be >= 0"),
         (env.push_duration_s > 0, "env.push_duration_s", "must be positive"),
-        (env.push_interval_s > env.push_duration_s, "env.push_interval_s", "must be longer than env.push_duration_s"),
+        (env.push_force_max_n == 0 or env.push_force_max_n >= env.push_force_n, "env.push_force_max_n",
+         f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
+        (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
+        (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
+         "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
+        (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),
+        (_scale_range_ok(env.mass_range), "env.mass_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),
         (config.reward.kind in ("released", "paper"), "reward.kind", "must be 'released' or 'paper'"),
         (config.reward.combine in ("own", "max"), "reward.combine", "must be 'own' or 'max'"),
         (config.task.name in ("",) + TASKS, "task.name", f"must be '' (none) or one of {', '.join(TASKS)}"),

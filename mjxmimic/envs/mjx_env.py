@@ -19,6 +19,7 @@ from mjxmimic.core.compat import patch_all
 from mjxmimic.core.config import Config
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
+from mjxmimic.physics import randomise
 from mjxmimic.physics.mjx import MjxPhysics, resolve_backend
 from mjxmimic.task import goals, termination
 
@@ -100,6 +101,8 @@ class ImitationEnv(Env):
             keys.append("reward/own_clip")
         if self.spec.terrain is not None:
             keys.append("terrain/x")
+        if randomise.enabled(self.config.env):
+            keys += ["randomise/friction", "randomise/mass"]
         return keys + [f"reward/{t.name}" for t in self.spec.rewards]
 
     def step(self, state: State, action: jax.Array) -> State:

@@ -1,7 +1,8 @@
 """One control step, written once for every backend and both array modules:
 
     action -> PD targets (reference pose at the step's end) -> events (external forces)
-    -> `substeps` of PD law + physics -> kinematics of the body and the reference
+    -> `substeps` of PD law + physics (under the episode's domain randomisation)
+    -> kinematics of the body and the reference
     -> reward terms (the best over a dataset's clips with reward.combine=max; mixed with a task's
        reward, mjxmimic.task.goals) -> terminations -> observation terms (+ the task's goal)
 
@@ -26,6 +27,7 @@ from mjxmimic.core.scene import Scene, build_scene, fall_mask, sensor_geoms
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
+from mjxmimic.physics import randomise
 from mjxmimic.task import events as event_terms
 from mjxmimic.task import goals
 from mjxmimic.task import observation as obs_terms
@@ -40,7 +42,7 @@ class Motion(NamedTuple):
     time: Any  # clip time (s), float32
     steps: Any  # control steps since the reset
     root_offset: Any  # (2,) horizontal shift of the reference root (reward.sync_root_position)
-    event_seed: Any  # in [0, 1), drawn at reset: what varies events (push directions) between episodes
+    event_seed: Any  # in [0, 1), drawn at reset: what varies events (pushes, randomised physics) between episodes
     goal: Any  # (4,) a task's episode state (strike: target x, y, z and whether it was hit); else zeros
 
 
@@ -269,11 +271,12 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     t = motion.time + xp.asarray(spec.control_dt, xp.float32)
     ref_qpos, ref_qvel = motion_lib.sample(lib, clip, t, xp)  # the unshifted root
     targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
-    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed,
-                                        spec.layout.body_mass.shape[0], xp)
+    nbody = spec.layout.body_mass.shape[0]
+    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, nbody, xp)
     if events is not None or external_force is not None:
         external_force = (0.0 if events is None else events) + (0.0 if external_force is None else external_force)
-    sub = physics.step(state, targets, external_force)
+    scales = randomise.draw(env, motion.event_seed, nbody, xp)
+    sub = physics.step(state, targets, external_force, scales)
     qpos, qvel = physics.qpos_qvel(sub.state)
     sim = physics.kinematics(qpos, qvel)
     task = spec.config.task
@@ -286,6 +289,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         metrics["reward/own_clip"] = r
         r = best_clip_reward(spec, physics, sim, qpos, motion_lib.phase(lib, clip, t, xp))
     metrics["reward/imitation"] = r
+    metrics.update(randomise.metrics(scales, xp))
     goal_state = motion.goal
     if task.name == "heading":
         yaw, speed = goal(spec, motion, xp)

@@ -12,6 +12,7 @@ from typing import Any, NamedTuple, Protocol
 
 from mjxmimic.core.kinematics import Kin
 from mjxmimic.physics.pd import Targets
+from mjxmimic.physics.randomise import Scales
 
 
 class Substeps(NamedTuple):
@@ -35,9 +36,10 @@ class Physics(Protocol):
     def qpos_qvel(self, state: Any) -> tuple[Any, Any]:
         ...
 
-    def step(self, state: Any, targets: Targets, external_force: Any = None) -> Substeps:
+    def step(self, state: Any, targets: Targets, external_force: Any = None, scales: Scales | None = None) -> Substeps:
         """One control step: `substeps` times the PD law towards `targets` and one physics step;
-        `external_force` (nbody, 6) [force, torque] at body centres, held for the whole step."""
+        `external_force` (nbody, 6) [force, torque] at body centres, held for the whole step;
+        `scales` the episode's domain randomisation (None: the nominal model)."""
 
     def kinematics(self, qpos: Any, qvel: Any) -> Kin:
         """MuJoCo's kinematics of any pose (the simulated body or the reference)."""

@@ -3,6 +3,7 @@ the evaluation of exported policies. No JAX on this path."""
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import mujoco
@@ -13,6 +14,7 @@ from mjxmimic.core.layout import Layout
 from mjxmimic.core.scene import Scene
 from mjxmimic.physics.backend import Substeps
 from mjxmimic.physics.pd import Targets, pd_forces
+from mjxmimic.physics.randomise import Scales, scaled_fields
 
 _DIVERGED = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
              mujoco.mjtWarning.mjWARN_BADQPOS)
@@ -33,6 +35,18 @@ class CpuPhysics:
         self.dt = float(scene.model.opt.timestep)
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)
+        self._scaled = copy.copy(self.model)  # the stepped model under domain randomisation
+
+    def stepped_model(self, scales: Scales | None) -> mujoco.MjModel:
+        """The model that an episode steps: the nominal one, or a copy with its randomised fields
+        under `scales` (mjxmimic.physics.randomise); kinematics keep the nominal one, as on MJX."""
+        if scales is None:
+            return self.model
+        fields = scaled_fields(self.model.body_mass, self.model.body_inertia, self.model.geom_friction,
+                               Scales(float(scales.friction), np.asarray(scales.mass, np.float64)), np)
+        for name, value in fields.items():
+            getattr(self._scaled, name)[:] = value
+        return self._scaled
 
     def init(self, qpos: Any, qvel: Any) -> mujoco.MjData:
         mujoco.mj_resetData(self.model, self.data)
@@ -50,8 +64,10 @@ class CpuPhysics:
     def _warnings(self, data: mujoco.MjData) -> int:
         return sum(int(data.warning[w].number) for w in _DIVERGED)
 
-    def step(self, state: mujoco.MjData, targets: Targets, external_force: Any = None) -> Substeps:
+    def step(self, state: mujoco.MjData, targets: Targets, external_force: Any = None,
+             scales: Scales | None = None) -> Substeps:
         data = state
+        model = self.stepped_model(scales)
         warnings0 = self._warnings(data)
         if external_force is not None:
             data.xfrc_applied[:] = external_force
@@ -59,7 +75,7 @@ class CpuPhysics:
         for _ in range(self.substeps):
             data.qfrc_applied[:] = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, np,
                                              self.torque_limit)
-            mujoco.mj_step(self.model, data)
+            mujoco.mj_step(model, data)
             contacts |= data.sensordata[self.scene.contact_adr] > 0
         data.xfrc_applied[:] = 0.0
         return Substeps(state=data, contacts=contacts, diverged=self._warnings(data) > warnings0)

@@ -23,6 +23,7 @@ from mjxmimic.core.layout import Layout
 from mjxmimic.core.scene import Scene
 from mjxmimic.physics.backend import Substeps
 from mjxmimic.physics.pd import Targets, pd_forces
+from mjxmimic.physics.randomise import Scales, scaled_fields
 
 BACKENDS = ("auto", "warp", "jax")
 
@@ -110,13 +111,24 @@ class MjxPhysics:
     def qpos_qvel(self, state: mjx.Data) -> tuple[jax.Array, jax.Array]:
         return state.qpos, state.qvel
 
-    def step(self, state: mjx.Data, targets: Targets, external_force: Any = None) -> Substeps:
+    def model(self, scales: Scales | None) -> mjx.Model:
+        """The model that an episode steps: the nominal one, or its randomised fields under
+        `scales` (mjxmimic.physics.randomise). Under vmap those fields are batched, one per env,
+        the rest shared: the per-env model that Brax's `in_axes` builds, made where it is used."""
+        if scales is None:
+            return self.sys
+        return self.sys.replace(**scaled_fields(self.sys.body_mass, self.sys.body_inertia, self.sys.geom_friction,
+                                                scales, jnp))
+
+    def step(self, state: mjx.Data, targets: Targets, external_force: Any = None,
+             scales: Scales | None = None) -> Substeps:
         if external_force is not None:
             state = state.replace(xfrc_applied=external_force)
+        model = self.model(scales)
 
         def substep(data, _):
             forces = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, jnp, self.torque_limit)
-            data = mjx.step(self.sys, data.replace(qfrc_applied=forces))
+            data = mjx.step(model, data.replace(qfrc_applied=forces))
             return data, data.sensordata[self.contact_adr] > 0
 
         data, contacts = jax.lax.scan(substep, state, None, length=self.substeps)

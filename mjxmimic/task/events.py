@@ -5,7 +5,10 @@ mass, world frame), summed over the events that `env.events` names. Off by defau
 push: every `env.push_interval_s` of an episode, a horizontal force of `env.push_force_n` on the
 root for `env.push_duration_s` (DeepMimic's Table 6 pushes are 0.2 s on the pelvis). Its direction
 comes from the episode's event seed and the push's index by a golden-ratio sequence, so the step
-needs no random numbers and MJX and the CPU env push alike.
+needs no random numbers and MJX and the CPU env push alike. With `env.push_force_max_n` each
+push's force lies in [push_force_n, push_force_max_n], and with `env.push_interval_jitter_s` it
+starts up to that long after its interval's start, each by a sequence of its own of the same
+kind (`sequence`).
 """
 
 from __future__ import annotations
@@ -15,18 +18,37 @@ from typing import Any, Callable
 from mjxmimic.core.config import EnvConfig
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.kinematics import ROOT_BODY
+from mjxmimic.task.goals import PLASTIC
 
 GOLDEN = 0.6180339887498949
+# (seed multiplier, step) of each push quantity's sequence frac(multiplier * seed + step * k): the
+# steps are the R2 sequence's (the plastic number's powers, as the goals use), irrational and
+# unlike the golden ratio; the multipliers make push k's force and delay vary between episodes
+# apart from its direction (with one multiplier all three would move together with the seed).
+DIRECTION = (1.0, GOLDEN)
+FORCE = (11.0, PLASTIC)
+DELAY = (13.0, PLASTIC * PLASTIC)
+
+
+def sequence(which: tuple[float, float], event_seed: Any, k: Any) -> Any:
+    """Push k's number in [0, 1) for one quantity: a low-discrepancy sequence over k, shifted by
+    the episode's event seed; smooth in the seed between its wraps, so float32 (MJX) and float64
+    (numpy) agree to rounding."""
+    multiplier, step = which
+    return (multiplier * event_seed + step * k) % 1.0
 
 
 def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any) -> Any:
     """The push force for a control step that starts `episode_time` seconds into the episode."""
     k = xp.floor(episode_time / env.push_interval_s)
-    since = episode_time - k * env.push_interval_s
-    active = (k >= 1) & (since < env.push_duration_s - 1e-6)  # no push in the first interval
-    turn = 2.0 * xp.pi * ((event_seed + GOLDEN * k) % 1.0)
+    since = episode_time - k * env.push_interval_s - env.push_interval_jitter_s * sequence(DELAY, event_seed, k)
+    active = (k >= 1) & (since > -1e-6) & (since < env.push_duration_s - 1e-6)  # none in the first interval
+    turn = 2.0 * xp.pi * sequence(DIRECTION, event_seed, k)
+    force = env.push_force_n
+    if env.push_force_max_n > 0:
+        force = force + (env.push_force_max_n - env.push_force_n) * sequence(FORCE, event_seed, k)
     zero = xp.zeros_like(turn)
-    wrench = env.push_force_n * active * xp.stack([xp.cos(turn), xp.sin(turn), zero, zero, zero, zero])
+    wrench = force * active * xp.stack([xp.cos(turn), xp.sin(turn), zero, zero, zero, zero])
     on_root = xp.arange(nbody) == ROOT_BODY
     return xp.where(on_root[:, None], wrench[None, :], 0.0).astype(xp.float32)
 

@@ -1,0 +1,209 @@
+"""Training with pushes and domain randomisation (issue 17): the new keys' validation, random push
+forces and start times, the per-episode friction and mass factors (in range, different between
+episodes, the same bits on numpy and JAX), the physics they change, MJX-CPU parity, and off by
+default."""
+
+import importlib.util
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjxmimic.core.config import apply_overrides, from_dict, make_config, to_dict
+from mjxmimic.core.errors import UserError
+from mjxmimic.core.kinematics import com_velocity
+from mjxmimic.physics import randomise
+from mjxmimic.physics.randomise import Scales
+from mjxmimic.task import events
+
+HAS_WARP = importlib.util.find_spec("warp") is not None
+RANDOMISED = {"env.friction_range": "0.3,0.6", "env.mass_range": "0.5,2.0"}
+
+
+@pytest.mark.parametrize("key, value, named, message", [
+    ("env.push_force_max_n", 100.0, "env.push_force_max_n", "at least env.push_force_n"),
+    ("env.push_interval_jitter_s", -0.1, "env.push_interval_jitter_s", "must be >= 0"),
+    ("env.push_interval_jitter_s", 1.9, "env.push_interval_s", "push_duration_s \\+ env.push_interval_jitter_s"),
+    ("env.friction_range", "1.2,0.8", "env.friction_range", "0 < lo <= hi"),
+    ("env.friction_range", "0,1", "env.friction_range", "0 < lo <= hi"),
+    ("env.friction_range", "1,inf", "env.friction_range", "finite"),
+    ("env.mass_range", "1.1", "env.mass_range", "two factors"),
+    ("env.mass_range", "heavy", "env.mass_range", "not a valid tuple"),
+])
+def test_new_keys_are_checked_in_one_line(key, value, named, message):
+    with pytest.raises(UserError, match=f"'{named}'.*{message}"):
+        make_config("cpu", {"env.push_force_n": 300.0, key: value})
+
+
+def test_ranges_are_float_pairs_that_survive_the_json_round_trip():
+    config = make_config("cpu", {"env.friction_range": "0.5,1.5", "env.mass_range": [1, 2]})
+    assert config.env.friction_range == (0.5, 1.5) and config.env.mass_range == (1.0, 2.0)
+    assert from_dict(to_dict(config)) == config
+    assert make_config("cpu").env.friction_range == (1.0, 1.0)  # off by default
+
+
+def test_pushes_draw_their_force_and_start_in_range_and_vary():
+    env = make_config("cpu", {"env.push_force_n": 200.0, "env.push_force_max_n": 800.0,
+                              "env.push_interval_s": 1.0, "env.push_interval_jitter_s": 0.5}).env
+    dt, forces, starts = 1 / 30, [], []
+    for seed in np.linspace(0.0, 1.0, 7, endpoint=False):
+        wrench = np.stack([events.push(env, k * dt, seed, 3, np)[events.ROOT_BODY] for k in range(150)])
+        force = np.linalg.norm(wrench[:, :2], axis=1)
+        assert np.all(force[:30] == 0)  # none in the first interval
+        for interval in range(1, 5):
+            on = np.flatnonzero(force[30 * interval:30 * (interval + 1)] > 0)
+            assert len(on) == 6 and np.all(np.diff(on) == 1)  # one 0.2 s push
+            assert on[0] * dt <= 0.5 + 1e-6  # starts within the jitter
+            assert 200.0 <= force[30 * interval + on[0]] <= 800.0
+            forces.append(force[30 * interval + on[0]])
+            starts.append(on[0])
+    assert np.ptp(forces) > 300.0 and len(set(starts)) > 5
+    # the same numbers in float32 under jit (MJX) as in numpy (the CPU env)
+    mjx = jax.jit(lambda t, s: events.push(env, t, s, 3, jnp))(jnp.float32(1.4), jnp.float32(0.3))
+    np.testing.assert_allclose(np.asarray(mjx), events.push(env, 1.4, 0.3, 3, np), rtol=1e-4, atol=1e-3)
+
+
+def test_factors_are_the_same_bits_on_numpy_and_jax_in_range_and_differ_between_episodes():
+    env = make_config("cpu", RANDOMISED).env
+    seeds = np.asarray(jax.random.uniform(jax.random.PRNGKey(0), (64,)))
+    draw = jax.jit(jax.vmap(lambda s: randomise.draw(env, s, 16, jnp)))(jnp.asarray(seeds))
+    for i in (0, 17, 63):
+        on_cpu = randomise.draw(env, float(seeds[i]), 16, np)
+        np.testing.assert_allclose(np.asarray(draw.mass[i]), on_cpu.mass, rtol=1e-6)
+        assert float(draw.friction[i]) == pytest.approx(float(on_cpu.friction), rel=1e-6)
+    friction, mass = np.asarray(draw.friction), np.asarray(draw.mass)
+    assert np.all((0.3 <= friction) & (friction <= 0.6)) and np.all((0.5 <= mass) & (mass <= 2.0))
+    assert len(np.unique(friction)) == 64 and np.ptp(friction) > 0.2
+    assert np.ptp(mass, axis=0).min() > 1.0  # every body varies between episodes
+    assert np.ptp(mass, axis=1).min() > 0.3  # and the bodies of one episode differ
+    assert randomise.draw(make_config("cpu").env, 0.3, 16, np) is None
+
+
+def _cpu_physics(character, config):
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    return CpuEnv(config, character, load_clip_source("slow_walk", character))
+
+
+def _one_step(cpu, scales, qvel_add=None, force=None, lift=0.0):
+    """One control step of the CPU physics from the walk at 0.3 s (lifted by `lift` m, moving
+    `qvel_add` faster), zero residual action."""
+    from mjxmimic.motion import library as motion
+    from mjxmimic.physics.pd import action_to_targets
+
+    qpos, qvel = motion.sample(cpu.spec.lib, 0, np.float32(0.3), np)
+    qpos, qvel = np.array(qpos), np.array(qvel) + (0 if qvel_add is None else qvel_add)
+    qpos[2] += lift
+    cpu.physics.init(qpos, qvel)
+    targets = action_to_targets(cpu.spec.layout, np.zeros(cpu.action_size), qpos, "residual", 1.0, np)
+    return cpu.physics.step(cpu.data, targets, force, scales).state.qvel.copy()
+
+
+def test_heavier_bodies_gain_less_speed_from_a_push_and_less_friction_slides_farther(character):
+    """MuJoCo C under explicit factors: in the air, twice the mass halves a push's velocity
+    change; a sliding character on a tenth of the friction keeps more of its speed."""
+    cpu = _cpu_physics(character, make_config("cpu", {"env.action_mode": "residual"}))
+    nbody, mass = cpu.model.nbody, cpu.model.body_mass.copy()
+    push = np.zeros((nbody, 6))
+    push[events.ROOT_BODY, 0] = 3000.0
+    nominal, heavy = Scales(1.0, np.ones(nbody)), Scales(1.0, 2.0 * np.ones(nbody))
+    def com_speed(scales, force):  # every body twice as heavy: the same weights in the mean
+        qvel = _one_step(cpu, scales, force=force, lift=1.0)
+        return com_velocity(cpu.physics.kinematics(cpu.data.qpos, qvel), cpu.spec.layout.body_mass, np)[0]
+
+    gain = {s: com_speed(scales, push) - com_speed(scales, None) for s, scales in (("nominal", nominal), ("heavy", heavy))}
+    assert gain["nominal"] == pytest.approx(3000.0 / 30 / 45.0, rel=0.02)  # momentum F dt on 45 kg
+    assert gain["heavy"] == pytest.approx(0.5 * gain["nominal"], rel=0.02)
+    np.testing.assert_array_equal(cpu.model.body_mass, mass)  # a copy was scaled, not the nominal model
+    slide = np.zeros(cpu.model.nv)
+    slide[0] = 3.0  # the whole body moving forward at 3 m/s, feet on the floor
+    keep = {f: _one_step(cpu, Scales(f, np.ones(nbody)), qvel_add=slide)[0] for f in (1.0, 0.1)}
+    assert keep[0.1] > keep[1.0] + 0.05  # 3.67 against 3.58 m/s
+    # the unscaled copy steps exactly as the nominal model does
+    np.testing.assert_array_equal(_one_step(cpu, nominal, force=push), _one_step(cpu, None, force=push))
+    assert cpu.physics.stepped_model(None) is cpu.model
+
+
+@pytest.mark.slow
+def test_mjx_steps_each_env_under_its_own_factors_as_mujoco_c_does(residual_env, character):
+    """A randomised env (a fresh compile), two episodes with different event seeds, pushed in the
+    air (no contact solve, where the two simulators agree to float32 rounding): MJX steps them
+    apart, each as the CPU env does with the same seed and unlike the nominal model; both step
+    the same friction, masses and inertias; the metrics log the draw."""
+    from mjxmimic.envs.mjx_env import ImitationEnv
+
+    cfg = apply_overrides(residual_env.config, RANDOMISED)
+    nominal = apply_overrides(cfg, {"env.friction_range": "1,1", "env.mass_range": "1,1"})
+    env = ImitationEnv(cfg, character, residual_env.clips)
+    states = jax.jit(jax.vmap(lambda k: env.reset_at(k, 0.3)))(jax.random.split(jax.random.PRNGKey(3), 2))
+    data = states.pipeline_state
+    states = states.replace(pipeline_state=data.replace(qpos=data.qpos.at[:, 2].add(1.0)))  # 1 m up
+    push = np.zeros((env.model.nbody, 6), np.float32)
+    push[events.ROOT_BODY, 0] = 2000.0
+    transition = jax.jit(jax.vmap(lambda s, a: env.transition(s, a, external_force=jnp.asarray(push))))
+    nxt = transition(states, jnp.zeros((2, env.action_size)))
+    mjx_qvel = np.asarray(nxt.pipeline_state.qvel)
+    assert np.abs(mjx_qvel[0] - mjx_qvel[1]).max() > 0.1
+    seeds = np.asarray(states.info["event_seed"])
+    for i in range(2):
+        scales = randomise.draw(cfg.env, float(seeds[i]), env.model.nbody, np)
+        assert float(nxt.metrics["randomise/friction"][i]) == pytest.approx(float(scales.friction), rel=1e-6)
+        assert float(nxt.metrics["randomise/mass"][i]) == pytest.approx(float(scales.mass[1:].mean()), rel=1e-5)
+        q, v = (np.asarray(x[i]) for x in (states.pipeline_state.qpos, states.pipeline_state.qvel))
+        runs = {}
+        for name, config in (("randomised", cfg), ("nominal", nominal)):
+            cpu = _cpu_physics(character, config)
+            cpu.set_state(q, v, 0.3, event_seed=float(seeds[i]))
+            cpu.step(np.zeros(env.action_size), external_force=push)
+            runs[name] = cpu.data.qvel.copy()
+        np.testing.assert_allclose(runs["randomised"], mjx_qvel[i], atol=1e-3)
+        assert np.abs(runs["nominal"] - mjx_qvel[i]).max() > 0.1
+        stepped = env.physics.model(Scales(jnp.float32(scales.friction), jnp.asarray(scales.mass)))
+        for field in ("body_mass", "body_inertia", "geom_friction"):
+            np.testing.assert_allclose(np.asarray(getattr(stepped, field)),
+                                       getattr(cpu.physics.stepped_model(scales), field), rtol=1e-6)
+
+
+def test_off_by_default_the_model_and_the_pushes_are_as_before(residual_env):
+    """No randomisation: MJX steps its nominal model itself and logs nothing more; without the
+    new push keys a push is bit for bit the fixed force it was (direction by the golden ratio)."""
+    assert not randomise.enabled(residual_env.config.env)
+    assert residual_env.physics.model(None) is residual_env.physics.sys
+    assert "randomise/mass" not in residual_env.metric_keys
+    env = make_config("cpu", {"env.push_force_n": 300.0}).env
+    for seed, t in ((0.3, 2.0), (0.71, 4.1), (0.05, 6.15)):
+        k = np.floor(t / env.push_interval_s)
+        turn = 2.0 * np.pi * ((seed + events.GOLDEN * k) % 1.0)
+        wrench = events.push(env, t, seed, 3, np)[events.ROOT_BODY]
+        np.testing.assert_array_equal(wrench, np.float32([300.0 * np.cos(turn), 300.0 * np.sin(turn), 0, 0, 0, 0]))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not HAS_WARP, reason="warp-lang not installed")
+def test_warp_batches_the_randomised_fields_as_jax_does(character):
+    """MJX-Warp (here on the CPU) takes per-env masses and friction under vmap and steps as
+    MJX-JAX does."""
+    from mjxmimic.envs.step import build
+    from mjxmimic.motion import library as motion
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.physics.mjx import MjxPhysics
+    from mjxmimic.physics.pd import action_to_targets
+
+    config = make_config("cpu", {"env.solver_iterations": 30, "env.ls_iterations": 30})
+    scene, spec = build(config, character, [load_clip_source("slow_walk", character)], jnp)
+    nbody = scene.model.nbody
+    qpos, qvel = motion.sample(spec.lib, 0, jnp.float32(0.3), jnp)
+    targets = action_to_targets(spec.layout, jnp.zeros(character.action_size), qpos, "residual", 1.0, jnp)
+    push = jnp.zeros((nbody, 6)).at[events.ROOT_BODY, 0].set(2000.0)
+    scales = Scales(friction=jnp.array([1.0, 0.2, 1.0]), mass=jnp.stack([jnp.ones(nbody), jnp.ones(nbody),
+                                                                           2.0 * jnp.ones(nbody)]))
+    out = {}
+    for impl in ("jax", "warp"):
+        physics = MjxPhysics(scene, spec.layout, 4, "total", impl, max_worlds=3)
+        one = lambda s: physics.step(physics.init(qpos, qvel), targets, push, s).state.qvel
+        out[impl] = np.asarray(jax.jit(jax.vmap(one))(scales))
+    np.testing.assert_allclose(out["warp"], out["jax"], atol=0.02)
+    assert np.abs(out["warp"][0] - out["warp"][1]).max() > 0.05  # less friction
+    assert out["warp"][2, 0] < out["warp"][0, 0] - 0.3  # heavier: less speed from the push
