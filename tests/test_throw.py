@@ -1,6 +1,7 @@
 """The throw task (mjxmimic.task.goals): the authored pitch clip, the ball held in the hand and let
 go at the release time, the target on the floor, landing, hits and misses, MJX and MuJoCo C alike."""
 
+import importlib.util
 import math
 
 import numpy as np
@@ -281,3 +282,29 @@ def test_pushes_and_external_forces_still_reach_the_character(character, pitch):
         for _ in range(9):
             e.step(zero, external_force=np.zeros((e.model.nbody, 6)))
     assert np.abs(env.data.qvel[:2] - calm.data.qvel[:2]).max() > 0.1  # pushed
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("warp") is None, reason="warp-lang not installed")
+def test_warp_carries_the_ball_and_lets_it_fly(character, pitch):
+    """MJX-Warp (here on the CPU): the ball sits at the hand while held, then only gravity acts."""
+    import jax
+    import jax.numpy as jnp
+
+    from mjxmimic.core.config import apply_overrides
+    from mjxmimic.envs.mjx_env import ImitationEnv
+
+    env = ImitationEnv(apply_overrides(THROW, {"physics.backend": "warp"}), character, [pitch], max_worlds=1)
+    state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.9)
+    transition, kinematics = jax.jit(env.transition), jax.jit(env.physics.kinematics)
+    velocities = []
+    for _ in range(12):
+        state = transition(state, jnp.zeros(env.action_size))
+        q, v = state.pipeline_state.qpos, state.pipeline_state.qvel
+        if float(state.info["time"]) < THROW.task.release_s - 1e-4:
+            hand = goals.ball_in_hand(kinematics(q, v), env.spec.task_body, jnp)[0][:3]
+            np.testing.assert_allclose(np.asarray(q[-7:-4]), np.asarray(hand), atol=1e-6)
+        else:
+            velocities.append(np.asarray(v[-6:-3]))
+    dv = np.diff(np.array(velocities), axis=0)
+    np.testing.assert_allclose(dv, np.tile([0.0, 0.0, -goals.GRAVITY * env.control_dt], (len(dv), 1)), atol=1e-4)

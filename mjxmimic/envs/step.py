@@ -369,8 +369,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         metrics.update({"reward/task": r_task, "task/hit": goal_state[3], "task/distance": distance})
     elif task.name == "throw":
         r_task, goal_state, distance, hit = goals.throw(task, ball_q[:3], ball_v[:3], released(spec, t),
-                                                        spec.ball.radius_m,
-                                                        motion.goal, xp)
+                                                        spec.ball.radius_m, motion.goal, xp)
         metrics.update({"reward/task": r_task, "task/hit": hit.astype(xp.float32), "task/distance": distance})
     if task.name:
         r = task.imitation_weight * r + task.task_weight * metrics["reward/task"]
