@@ -33,7 +33,8 @@ LENGTHS = {"backflip": 1.75, "cartwheel": 2.72, "crawl": 2.93, "dance_a": 1.62, 
            "getup_facedown": 3.03, "getup_faceup": 3.77, "jump": 1.77, "kick": 1.53, "punch": 2.13,
            "roll": 2.02, "run": 0.80, "spin": 4.42, "spinkick": 1.28, "walk": 1.27}
 NO_LOOP = {"getup_facedown", "getup_faceup", "kick", "punch"}
-AUTHORED = ["slow_walk", "squat", "wave"]
+AUTHORED = ["slow_walk", "squat", "wave"]  # looping; the project's pitch does not (tests/test_throw.py)
+PROJECT = AUTHORED + ["pitch"]
 
 
 def quat_adrs(character) -> list[int]:
@@ -356,7 +357,7 @@ def test_list_clips(deepmimic_dir, tmp_path, character, no_user_dirs):
     write(tmp_path, good(character), "slow_walk.txt")
     no_user_dirs.setenv("MJXMIMIC_CLIPS", os.pathsep.join([str(tmp_path), str(deepmimic_dir / "motions")]))
     found = {name: (path, label) for name, path, label in list_clips()}
-    for name in AUTHORED:
+    for name in PROJECT:
         assert found[name] == (PROJECT_CLIPS / f"{name}.txt", "project")
     assert found["walk"] == (tmp_path / "walk.txt", "MJXMIMIC_CLIPS")  # first source wins
     assert found["backflip"] == (deepmimic_dir / "motions" / "humanoid3d_backflip.txt", "MJXMIMIC_CLIPS")
@@ -364,7 +365,7 @@ def test_list_clips(deepmimic_dir, tmp_path, character, no_user_dirs):
     assert "make_clips" not in found
     names = [name for name, _, _ in list_clips()]
     assert names == sorted(names) and len(names) == len(set(names))
-    assert {name for name, _, _ in list_clips(tmp_path)} == set(AUTHORED) | {"walk"}
+    assert {name for name, _, _ in list_clips(tmp_path)} == set(PROJECT) | {"walk"}
 
 
 def test_load_clip_source(deepmimic_dir, character, no_user_dirs):
@@ -472,7 +473,7 @@ def test_script_reproduces_committed_clips(character):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     texts = module.clip_texts(character)
-    assert {f"{n}.txt" for n in AUTHORED} <= set(texts)
+    assert {f"{n}.txt" for n in PROJECT} <= set(texts)
     assert set(texts) == {p.name for p in PROJECT_CLIPS.glob("*.txt")}
     for fname, text in texts.items():
         assert (PROJECT_CLIPS / fname).read_text() == text, f"clips/{fname} differs from make_clips.py"

@@ -109,7 +109,7 @@ def test_task_config_errors():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task, size", [("heading", 3), ("strike", 4)])
+@pytest.mark.parametrize("task, size", [("heading", 3), ("strike", 4), ("throw", 11)])
 def test_mjx_env_appends_the_goal_and_evaluates_the_task(character, task, size):
     import jax
     import jax.numpy as jnp
@@ -120,7 +120,7 @@ def test_mjx_env_appends_the_goal_and_evaluates_the_task(character, task, size):
 
     config = make_config("cpu", {"task.name": task, "env.action_mode": "residual", "physics.backend": "jax",
                                  "run.eval_episodes": 2})
-    env = ImitationEnv(config, character, [load_clip_source("slow_walk", character)])
+    env = ImitationEnv(config, character, [load_clip_source(config.clip.name, character)])
     plain = make_config("cpu", {"env.action_mode": "residual"})
     assert env.observation_size == ImitationEnv(plain, character, env.clips).observation_size + size
     out = evaluate(env, lambda obs, key: jnp.zeros(obs.shape[:-1] + (env.action_size,)), config, seed=0)

@@ -92,11 +92,15 @@ def _viewer_loop(env, policy, starts):
     import mujoco.viewer
 
     from mjxmimic.portable.playback import evaluate
+    from mjxmimic.portable.render import decorate, goal_arrow, goal_markers
 
     with mujoco.viewer.launch_passive(env.model, env.data) as viewer:
         clock = _RealTime(env.control_dt)
 
         def on_step(e, s):
+            if e.config.task.name:  # the goal (the thrown ball is in the viewer's model)
+                viewer.user_scn.ngeom = 0
+                decorate(viewer.user_scn, [goal_arrow(e)], goal_markers(e, ball=False))
             viewer.sync()
             clock.wait()
             return viewer.is_running()

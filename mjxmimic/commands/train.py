@@ -28,7 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the simulated character (character.xml): humanoid (default), dog3d, g1, or an MJCF file")
     parser.add_argument("--task", choices=config_lib.TASKS,
                         help="a task to chase while imitating (task.name): heading = walk in a commanded "
-                             "direction at a commanded speed; strike = hit a target (the spinkick)")
+                             "direction at a commanded speed; strike = hit a target (the spinkick); "
+                             "throw = throw a ball onto a target on the floor (the pitch clip)")
     parser.add_argument("--terrain", choices=config_lib.TERRAINS,
                         help="a course to cross (terrain.kind; mjxmimic.core.terrain), seen through a heightmap; "
                              "--set terrain.seed=N, terrain.difficulty=0..1")

@@ -88,16 +88,21 @@ class RewardConfig:
 
 @dataclasses.dataclass(frozen=True)
 class TaskConfig:
-    name: str = ""  # "" (imitation only), "heading" or "strike" (mjxmimic.task.goals)
+    name: str = ""  # "" (imitation only), "heading", "strike" or "throw" (mjxmimic.task.goals)
     imitation_weight: float = 0.7  # r = imitation_weight * r_imitation + task_weight * r_task
     task_weight: float = 0.3
     speed: float = 0.0  # heading: commanded speed (m/s); 0 = the clip's own average speed
     resample_s: float = 5.0  # heading: a new direction every this many seconds of the episode
     strike_body: str = "right_ankle"  # strike: the body whose centre must reach the target
-    target_min_m: float = 0.5  # strike: the target's horizontal distance from the root at reset,
-    target_max_m: float = 1.0  # uniform in [min, max], in any direction
+    target_min_m: float = 0.5  # strike, throw: the target's horizontal distance from the root at reset,
+    target_max_m: float = 1.0  # uniform in [min, max], in any direction (throw: TASK_DEFAULTS)
     target_height_m: float = 1.2  # strike: the target centre's height
-    target_radius_m: float = 0.2  # strike: a hit is the striking body's centre within this radius
+    target_radius_m: float = 0.2  # strike: a hit is the striking body's centre within this radius;
+    # throw: the ball lands (its centre first at its radius above the floor) within it
+    throw_hand: str = "right_wrist"  # throw: the body that holds the ball
+    # throw: the clip time (s) at which the hand lets go; the project's pitch clip's
+    # (mjxmimic/motion/clips/make_clips.py PITCH_RELEASE_S; a test keeps them equal)
+    release_s: float = 1.1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -181,7 +186,14 @@ class Config:
 LR_SCHEDULES = ("constant", "linear", "cosine")
 STD_MODES = ("learned", "fixed")
 MATMUL_PRECISIONS = ("default", "BF16_BF16_F32", "TF32_TF32_F32", "F32_F32_F32")
-TASKS = ("heading", "strike")  # mjxmimic.task.goals
+TASKS = ("heading", "strike", "throw")  # mjxmimic.task.goals
+# Defaults that a task brings, applied after the preset and before the overrides (make_config):
+# throw plays the project's pitch clip, whose reference release lands the ball about 5 m ahead
+# (a target radius is not in DEEPMIMIC.md: 0.5 m is this project's choice).
+TASK_DEFAULTS: dict[str, dict[str, Any]] = {
+    "throw": {"clip.name": "pitch", "task.target_min_m": 3.0, "task.target_max_m": 6.0,
+              "task.target_radius_m": 0.5},
+}
 TERRAINS = ("gaps", "beam", "stairs", "mixed")  # mjxmimic.core.terrain
 
 PRESETS: dict[str, dict[str, Any]] = {
@@ -301,6 +313,8 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
     if preset not in PRESETS:
         raise UserError(f"preset {preset!r} does not exist (presets: {', '.join(PRESETS)})")
     config = apply_overrides(Config(), PRESETS[preset])
+    task = (overrides or {}).get("task.name", config.task.name)
+    config = apply_overrides(config, TASK_DEFAULTS.get(task, {}))
     return apply_overrides(config, overrides or {})
 
 
@@ -342,6 +356,7 @@ def validate(config: Config) -> None:
          "task weights must be >= 0"),
         (config.task.speed >= 0, "task.speed", "must be >= 0 (0: the clip's own speed)"),
         (config.task.resample_s > 0, "task.resample_s", "must be positive"),
+        (config.task.release_s > 0, "task.release_s", "must be positive (a clip time in s)"),
         (config.terrain.kind in ("none",) + TERRAINS, "terrain.kind",
          f"must be 'none' or one of {', '.join(TERRAINS)}"),
         (0 <= config.terrain.difficulty <= 1, "terrain.difficulty", "must be in [0, 1]"),

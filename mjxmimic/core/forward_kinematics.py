@@ -55,10 +55,11 @@ class Tree(NamedTuple):
     mass: np.ndarray  # (nbody,) the root subtree's masses, 0 elsewhere
 
 
-def read_tree(model: Any) -> Tree:
-    """The tree of `model`, read once (MuJoCo's compiler allows a free joint only on a child of
-    the world, where it sets the body's frame)."""
-    nbody = model.nbody
+def read_tree(model: Any, nbody: int = 0) -> Tree:
+    """The tree of `model`'s first `nbody` bodies (all by default: a scene's extra bodies, such as
+    a thrown ball, come after the character's), read once (MuJoCo's compiler allows a free joint
+    only on a child of the world, where it sets the body's frame)."""
+    nbody = nbody or model.nbody
     depth = np.zeros(nbody, int)
     kinds = [()] * nbody
     for b in range(1, nbody):
@@ -81,10 +82,10 @@ def read_tree(model: Any) -> Tree:
     for b in range(1, nbody):
         in_root[b] = b == ROOT_BODY or in_root[model.body_parentid[b]]
     return Tree(nbody=nbody, levels=tuple(levels),
-                body_pos=np.asarray(model.body_pos, np.float32),
-                body_rot=quat.to_matrix(np.asarray(model.body_quat, np.float64)).astype(np.float32),
-                body_ipos=np.asarray(model.body_ipos, np.float32),
-                mass=np.where(in_root, model.body_mass, 0.0).astype(np.float32))
+                body_pos=np.asarray(model.body_pos[:nbody], np.float32),
+                body_rot=quat.to_matrix(np.asarray(model.body_quat[:nbody], np.float64)).astype(np.float32),
+                body_ipos=np.asarray(model.body_ipos[:nbody], np.float32),
+                mass=np.where(in_root, model.body_mass[:nbody], 0.0).astype(np.float32))
 
 
 def _set(xp: Any, a: Any, idx: np.ndarray, value: Any) -> Any:

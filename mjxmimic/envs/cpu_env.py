@@ -57,6 +57,7 @@ class CpuEnv:
         self.max_steps = self.spec.max_steps
         self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
         self.clip_durations = self.spec.lib.duration
+        self.eval_start_limits = step_lib.eval_start_limits(self.spec, np)
         self.clip_duration = float(self.spec.lib.duration[0])
         self.terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0,
@@ -73,14 +74,18 @@ class CpuEnv:
 
     def set_state(self, qpos: Any, qvel: Any, t: float, steps: int = 0, root_offset: Any = (0.0, 0.0),
                   event_seed: float = 0.0, clip: int = 0) -> np.ndarray:
-        """Put the character in (qpos, qvel) at time t of clip number `clip`; returns the observation."""
-        self.physics.init(qpos, qvel)
+        """Put the character in (qpos, qvel) at time t of clip number `clip` (the throw task's ball in
+        its hand unless qpos has the ball's too); returns the observation."""
+        self.physics.init(*step_lib.with_ball(self.spec, self.physics, np.asarray(qpos), np.asarray(qvel)))
         self.motion = step_lib.Motion(clip=int(clip), time=np.float32(t), steps=int(steps),
                                       root_offset=np.array(root_offset, dtype=np.float64),
                                       event_seed=float(event_seed),
                                       goal=step_lib.initial_goal(self.spec, qpos, event_seed, np))
-        kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
-        return step_lib.observe(self.spec, self.physics, kin, self.motion)
+        return self._observe(self.motion)
+
+    def _observe(self, motion: step_lib.Motion) -> np.ndarray:
+        qpos, qvel, ball_q, ball_v = step_lib.split_ball(self.spec, self.data.qpos, self.data.qvel)
+        return step_lib.observe(self.spec, self.physics, self.physics.kinematics(qpos, qvel), motion, (ball_q, ball_v))
 
     def reset_at(self, t: float, event_seed: float = 0.0, clip: int = 0) -> np.ndarray:
         """The reference state at time t of clip number `clip` (RSI); returns the observation.
@@ -97,9 +102,7 @@ class CpuEnv:
     def observe_as(self, clip: int, time: float) -> np.ndarray:
         """The observation of the present state as if clip number `clip` played at `time`
         (nothing changes)."""
-        motion = self.motion._replace(clip=int(clip), time=np.float32(time))
-        kin = self.physics.kinematics(self.data.qpos, self.data.qvel)
-        return step_lib.observe(self.spec, self.physics, kin, motion)
+        return self._observe(self.motion._replace(clip=int(clip), time=np.float32(time)))
 
     def play(self, clip: int, time: float) -> None:
         """Follow clip number `clip` from `time` on, from the present state (no reset)."""
@@ -126,8 +129,9 @@ class CpuEnv:
 
     def start_times(self, n: int, seed: int, clip: int = 0) -> np.ndarray:
         """n start times ~ U[0, clip duration) from a seeded numpy generator (the interval that
-        MJX evaluation draws from; its own times come from JAX's generator, see export)."""
-        duration = float(self.clip_durations[clip])
+        MJX evaluation draws from, step.eval_start_limits; its own times come from JAX's generator,
+        see export)."""
+        duration = float(self.eval_start_limits[clip])
         return np.random.default_rng(seed).uniform(0.0, duration, size=n).astype(np.float32)
 
     def episode(self, policy: Callable[[np.ndarray], np.ndarray], t0: float,

@@ -53,6 +53,7 @@ class ImitationEnv(Env):
                                                              config.terrain.kind != "none")
         self.eval_terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.clip_durations = self.spec.lib.duration
+        self.eval_start_limits = step_lib.eval_start_limits(self.spec, jnp)
         self.clip_duration = float(self.spec.lib.duration[0])
 
     # Brax Env interface -------------------------------------------------------------------

@@ -23,7 +23,7 @@ from mjxmimic.core.errors import UserError
 from mjxmimic.core.layout import Layout, make_layout
 from mjxmimic.core import terrain as terrain_lib
 from mjxmimic.core.kinematics import ROOT_BODY, root_yaw
-from mjxmimic.core.scene import Scene, build_scene, fall_mask, sensor_geoms
+from mjxmimic.core.scene import Ball, Scene, build_scene, fall_mask, sensor_geoms
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
@@ -43,7 +43,8 @@ class Motion(NamedTuple):
     steps: Any  # control steps since the reset
     root_offset: Any  # (2,) horizontal shift of the reference root (reward.sync_root_position)
     event_seed: Any  # in [0, 1), drawn at reset: what varies events (pushes, randomised physics) between episodes
-    goal: Any  # (4,) a task's episode state (strike: target x, y, z and whether it was hit); else zeros
+    goal: Any  # (4,) a task's episode state (strike: target x, y, z and whether it was hit; throw:
+    # target x, y, whether the ball landed, its distance from the target); else zeros
 
 
 class Spec(NamedTuple):
@@ -61,10 +62,11 @@ class Spec(NamedTuple):
     max_steps: int
     observation_size: int
     action_size: int
-    task_body: int  # the strike task's striking body (-1 without one)
+    task_body: int  # the strike task's striking body, the throw task's hand (-1 without one)
     config: Config
     terrain: Any = None  # mjxmimic.core.terrain.Terrain, its boxes in xp; None on the flat floor
     heightmap_offsets: Any = None  # (rows * cols, 2) the heightmap's grid in the heading frame
+    ball: Ball | None = None  # the throw task's ball: its state follows the character's in qpos and qvel
 
 
 class Result(NamedTuple):
@@ -88,13 +90,14 @@ def build(config: Config, character: Character, clips: list[Any], xp: Any, weigh
     """The physics scene and the step's static data for `clips`, arrays converted with `xp.asarray`."""
     env = config.env
     scene = build_scene(character, env.physics_hz, env.solver_iterations, env.ls_iterations,
-                        terrain_lib.from_config(config.terrain))
+                        terrain_lib.from_config(config.terrain), ball_of(config))
     return scene, make_spec(config, character, scene, clips, xp, weights)
 
 
 def make_spec(config: Config, character: Character, scene: Scene, clips: list[Any], xp: Any,
               weights: Any = None) -> Spec:
     """The step's static data for `clips`, arrays converted with `xp.asarray`."""
+    check_release(config, clips)
     masks = []
     for clip in clips:
         try:
@@ -119,13 +122,29 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         paper_rewards=reward_terms.terms("paper"),
         control_dt=1.0 / env.control_hz,
         max_steps=int(round(env.episode_seconds * env.control_hz)),
-        observation_size=observation_size(config, scene.model.nbody, len(clips)),
+        observation_size=observation_size(config, character.model.nbody, len(clips)),
         action_size=character.action_size,
         task_body=_task_body(config, scene),
         config=config,
         terrain=terrain,
         heightmap_offsets=None if terrain is None else xp.asarray(heightmap_grid(config)),
+        ball=ball_of(config),
     )
+
+
+def ball_of(config: Config) -> Ball | None:
+    """The throw task's ball (a baseball), else None."""
+    return Ball() if config.task.name == "throw" else None
+
+
+def check_release(config: Config, clips: list[Any]) -> None:
+    """The throw task lets go within every clip."""
+    if config.task.name != "throw":
+        return
+    for clip in clips:
+        if config.task.release_s >= clip.duration:
+            raise UserError(f"config key 'task.release_s': {config.task.release_s} s is not before the end of "
+                            f"clip {clip.name!r} ({clip.duration:.2f} s)")
 
 
 def heightmap_grid(config: Config) -> np.ndarray:
@@ -142,13 +161,16 @@ def observation_size(config: Config, nbody: int, nclips: int = 1) -> int:
 
 
 def _task_body(config: Config, scene: Scene) -> int:
-    if config.task.name != "strike":
+    """The strike task's striking body, the throw task's hand."""
+    key = {"strike": "strike_body", "throw": "throw_hand"}.get(config.task.name)
+    if key is None:
         return -1
     import mujoco
 
-    body = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, config.task.strike_body)
-    if body < 0:
-        raise UserError(f"config key 'task.strike_body': the character has no body {config.task.strike_body!r}")
+    name = getattr(config.task, key)
+    body = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, name)
+    if not 0 < body < (scene.nbody or scene.model.nbody):
+        raise UserError(f"config key 'task.{key}': the character has no body {name!r}")
     return body
 
 
@@ -160,8 +182,32 @@ def goal(spec: Spec, motion: Motion, xp: Any) -> tuple[Any, Any]:
     return (yaw if spec.terrain is None else xp.zeros_like(yaw)), speed
 
 
-def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
-    """The observation terms, then the goal when there is a task (DEEPMIMIC.md)."""
+def split_ball(spec: Spec, qpos: Any, qvel: Any) -> tuple[Any, Any, Any, Any]:
+    """(character qpos, qvel, ball qpos, ball qvel) of the scene's; the ball's are empty without one."""
+    nq, nv = spec.layout.q_perm.shape[0], spec.layout.v_perm.shape[0]
+    return qpos[:nq], qvel[:nv], qpos[nq:], qvel[nv:]
+
+
+def with_ball(spec: Spec, physics: Physics, qpos: Any, qvel: Any) -> tuple[Any, Any]:
+    """The scene's (qpos, qvel) for the character's: the ball appended in the hand, if there is one
+    and it is not there yet."""
+    xp = physics.xp
+    if spec.ball is None or qpos.shape[0] > spec.layout.q_perm.shape[0]:
+        return qpos, qvel
+    ball_q, ball_v = goals.ball_in_hand(physics.kinematics(qpos, qvel), spec.task_body, xp)
+    return xp.concatenate([qpos, ball_q.astype(qpos.dtype)]), xp.concatenate([qvel, ball_v.astype(qvel.dtype)])
+
+
+def released(spec: Spec, clip_time: Any) -> Any:
+    """Whether the throw task's ball flies freely from a control step boundary at `clip_time` on:
+    the hand carries it to the first boundary at or after task.release_s (to within the 1e-4 s by
+    which float32 clip times drift), and lets go there."""
+    return clip_time >= spec.config.task.release_s - 1e-4
+
+
+def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion, ball: tuple[Any, Any] | None = None) -> Any:
+    """The observation terms, then the goal when there is a task (DEEPMIMIC.md); `ball` (its free
+    joint's qpos, qvel) for the throw task."""
     xp = physics.xp
     onehot = None
     if "skill" in spec.observations:
@@ -173,6 +219,9 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion) -> Any:
         obs = xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
     elif task == "strike":
         obs = xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp)])
+    elif task == "throw":
+        obs = xp.concatenate([obs, goals.throw_observation(kin, motion.goal, ball[0][:3], ball[1][:3],
+                                                           released(spec, motion.time), xp)])
     if spec.terrain is not None:
         obs = xp.concatenate([obs, terrain_lib.heightmap(spec.terrain.boxes, spec.terrain.depth, spec.heightmap_offsets,
                                                          kin.xipos[ROOT_BODY], root_yaw(kin, xp), xp)])
@@ -184,11 +233,12 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     xp = physics.xp
     t = xp.asarray(t, dtype=xp.float32)
     event_seed = xp.asarray(event_seed, xp.float32)
-    qpos, qvel = start_state(spec, clip, t, event_seed, xp)
+    qpos, qvel = with_ball(spec, physics, *start_state(spec, clip, t, event_seed, xp))
     state = physics.init(qpos, qvel)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
                     event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp))
-    return state, motion, observe(spec, physics, physics.kinematics(qpos, qvel), motion)
+    q, v, ball_q, ball_v = split_ball(spec, qpos, qvel)
+    return state, motion, observe(spec, physics, physics.kinematics(q, v), motion, (ball_q, ball_v))
 
 
 def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tuple[Any, Any]:
@@ -201,17 +251,31 @@ def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tupl
 
 
 def initial_goal(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
-    """Motion.goal at reset: the strike target around the character, else zeros."""
+    """Motion.goal at reset: the strike or throw target around the character, else zeros."""
     if spec.config.task.name == "strike":
         return goals.place_target(spec.config.task, qpos, event_seed, xp)
+    if spec.config.task.name == "throw":
+        return goals.throw_start(spec.config.task, qpos, event_seed, xp)
     return xp.zeros(4, xp.float32)
 
 
 def start_time_range(spec: Spec, clip: Any, xp: Any) -> Any:
     """RSI draws t in [0, this): the clip's duration, less one control step for a non-looping clip
-    (so that at least one step remains)."""
+    (so that at least one step remains); under the throw task only up to the release, so that every
+    episode throws (and every evaluation trial is a throw)."""
     dur = spec.lib.duration[clip]
-    return xp.where(spec.lib.loop[clip], dur, xp.maximum(dur - spec.control_dt, 0.0))
+    return start_limit(spec.config, xp.where(spec.lib.loop[clip], dur, xp.maximum(dur - spec.control_dt, 0.0)), xp)
+
+
+def start_limit(config: Config, limit: Any, xp: Any = np) -> Any:
+    """`limit` (the end of a clip's start times), under the throw task no later than the release,
+    so that every episode and every evaluation trial throws (EVALUATION.md, "Task success")."""
+    return limit if config.task.name != "throw" else xp.minimum(limit, config.task.release_s)
+
+
+def eval_start_limits(spec: Spec, xp: Any) -> Any:
+    """Per clip, evaluation start times are drawn in [0, this): the clip's duration (`start_limit`)."""
+    return start_limit(spec.config, spec.lib.duration, xp)
 
 
 def eval_horizon(spec: Spec, clip: Any, t: Any, xp: Any) -> Any:
@@ -273,12 +337,20 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
     nbody = spec.layout.body_mass.shape[0]
     events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, nbody, xp)
+    if events is not None and external_force is not None and external_force.shape[0] > events.shape[0]:
+        events = xp.concatenate([events, xp.zeros_like(external_force[events.shape[0]:])])  # a ball's rows
     if events is not None or external_force is not None:
         external_force = (0.0 if events is None else events) + (0.0 if external_force is None else external_force)
     scales = randomise.draw(env, motion.event_seed, nbody, xp)
     sub = physics.step(state, targets, external_force, scales)
-    qpos, qvel = physics.qpos_qvel(sub.state)
+    qpos, qvel, ball_q, ball_v = split_ball(spec, *physics.qpos_qvel(sub.state))
     sim = physics.kinematics(qpos, qvel)
+    if spec.ball is not None:  # the hand carries the ball to the release time
+        held = ~released(spec, motion.time)
+        hand_q, hand_v = goals.ball_in_hand(sim, spec.task_body, xp)
+        ball_q, ball_v = xp.where(held, hand_q, ball_q), xp.where(held, hand_v, ball_v)
+        sub = sub._replace(state=physics.with_qpos_qvel(sub.state, xp.concatenate([qpos, ball_q]),
+                                                        xp.concatenate([qvel, ball_v])))
     task = spec.config.task
     offset = motion.root_offset
     if spec.config.reward.sync_root_position and not task.name:  # a task's reference follows the character
@@ -299,6 +371,10 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     elif task.name == "strike":
         r_task, goal_state, distance = goals.strike(task, sim, spec.task_body, motion.goal, xp)
         metrics.update({"reward/task": r_task, "task/hit": goal_state[3], "task/distance": distance})
+    elif task.name == "throw":
+        r_task, goal_state, distance, hit = goals.throw(task, ball_q[:3], ball_v[:3], released(spec, t),
+                                                        spec.ball.radius_m, motion.goal, xp)
+        metrics.update({"reward/task": r_task, "task/hit": hit.astype(xp.float32), "task/distance": distance})
     if task.name:
         r = task.imitation_weight * r + task.task_weight * metrics["reward/task"]
 
@@ -320,7 +396,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
     motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
-    obs = observe(spec, physics, sim, motion)
+    obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}
     if grade_paper:

@@ -34,12 +34,18 @@ class Physics(Protocol):
         """`fresh` where done, else `state` (the auto-reset)."""
 
     def qpos_qvel(self, state: Any) -> tuple[Any, Any]:
-        ...
+        """The scene's whole qpos and qvel: the character's first, then a ball's if there is one."""
+
+    def with_qpos_qvel(self, state: Any, qpos: Any, qvel: Any) -> Any:
+        """The state with qpos and qvel replaced (the throw task carries its ball in the hand so);
+        the next step recomputes everything else from them."""
 
     def step(self, state: Any, targets: Targets, external_force: Any = None, scales: Scales | None = None) -> Substeps:
         """One control step: `substeps` times the PD law towards `targets` and one physics step;
-        `external_force` (nbody, 6) [force, torque] at body centres, held for the whole step;
-        `scales` the episode's domain randomisation (None: the nominal model)."""
+        `external_force` (nbody, 6) [force, torque] at body centres, held for the whole step (the
+        character's bodies or the scene's); `scales` the episode's domain randomisation (None: the
+        nominal model)."""
 
     def kinematics(self, qpos: Any, qvel: Any) -> Kin:
-        """MuJoCo's kinematics of any pose (the simulated body or the reference)."""
+        """MuJoCo's kinematics of any pose of the character (the simulated body or the reference):
+        its qpos and qvel, or the scene's with them as a prefix; the character's bodies only."""

@@ -61,6 +61,11 @@ class CpuPhysics:
     def qpos_qvel(self, state: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         return state.qpos.copy(), state.qvel.copy()
 
+    def with_qpos_qvel(self, state: mujoco.MjData, qpos: Any, qvel: Any) -> mujoco.MjData:
+        state.qpos[:] = qpos
+        state.qvel[:] = qvel
+        return state
+
     def _warnings(self, data: mujoco.MjData) -> int:
         return sum(int(data.warning[w].number) for w in _DIVERGED)
 
@@ -70,21 +75,25 @@ class CpuPhysics:
         model = self.stepped_model(scales)
         warnings0 = self._warnings(data)
         if external_force is not None:
-            data.xfrc_applied[:] = external_force
+            data.xfrc_applied[: len(external_force)] = external_force
         contacts = np.zeros(len(self.scene.contact_adr), bool)
+        nv = self.layout.v_perm.shape[0]  # the character's; a ball's dofs get no force
         for _ in range(self.substeps):
-            data.qfrc_applied[:] = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, np,
-                                             self.torque_limit)
+            data.qfrc_applied[:nv] = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, np,
+                                               self.torque_limit)
             mujoco.mj_step(model, data)
             contacts |= data.sensordata[self.scene.contact_adr] > 0
         data.xfrc_applied[:] = 0.0
         return Substeps(state=data, contacts=contacts, diverged=self._warnings(data) > warnings0)
 
     def kinematics(self, qpos: Any, qvel: Any) -> Kin:
-        d = self._scratch
-        d.qpos[:] = qpos
-        d.qvel[:] = qvel
+        d, scene = self._scratch, self.scene
+        nq, nv, nbody = scene.nq or self.model.nq, scene.nv or self.model.nv, scene.nbody or self.model.nbody
+        d.qpos[:nq] = qpos[:nq]
+        d.qvel[:nv] = qvel[:nv]
         mujoco.mj_kinematics(self.model, d)
         mujoco.mj_comPos(self.model, d)
         mujoco.mj_comVel(self.model, d)
-        return kin_from_data(d, np)
+        k = kin_from_data(d, np)
+        return Kin(qpos=k.qpos[:nq], qvel=k.qvel[:nv], xipos=k.xipos[:nbody], xmat=k.xmat[:nbody],
+                   angvel=k.angvel[:nbody], linvel=k.linvel[:nbody], com=k.com)

@@ -100,7 +100,9 @@ class MjxPhysics:
         else:
             self.sys = mjx.put_model(scene.model, impl="jax")
             self._data0 = mjx.make_data(self.sys)
-        self._tree = forward_kinematics.read_tree(scene.model)
+        self._tree = forward_kinematics.read_tree(scene.model, scene.nbody)
+        self._nq, self._nv = scene.nq or scene.model.nq, scene.nv or scene.model.nv  # the character's
+        self._extra_dofs = scene.model.nv - self._nv  # a ball's, after the character's
 
     def init(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
         return self._data0.replace(qpos=qpos, qvel=qvel)
@@ -120,14 +122,22 @@ class MjxPhysics:
         return self.sys.replace(**scaled_fields(self.sys.body_mass, self.sys.body_inertia, self.sys.geom_friction,
                                                 scales, jnp))
 
+    def with_qpos_qvel(self, state: mjx.Data, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
+        return state.replace(qpos=qpos, qvel=qvel)
+
     def step(self, state: mjx.Data, targets: Targets, external_force: Any = None,
              scales: Scales | None = None) -> Substeps:
         if external_force is not None:
+            pad = self.scene.model.nbody - external_force.shape[0]  # a ball's body after the character's
+            if pad:
+                external_force = jnp.pad(external_force, ((0, pad), (0, 0)))
             state = state.replace(xfrc_applied=external_force)
         model = self.model(scales)
 
         def substep(data, _):
             forces = pd_forces(self.layout, data.qpos, data.qvel, targets, self.dt, jnp, self.torque_limit)
+            if self._extra_dofs:
+                forces = jnp.pad(forces, (0, self._extra_dofs))
             data = mjx.step(model, data.replace(qfrc_applied=forces))
             return data, data.sensordata[self.contact_adr] > 0
 
@@ -137,6 +147,6 @@ class MjxPhysics:
         return Substeps(state=data, contacts=jnp.any(contacts, axis=0), diverged=jnp.zeros((), bool))
 
     def kinematics(self, qpos: jax.Array, qvel: jax.Array) -> Kin:
-        return forward_kinematics.kinematics(self._tree, qpos, qvel, jnp)
+        return forward_kinematics.kinematics(self._tree, qpos[: self._nq], qvel[: self._nv], jnp)
 
 

@@ -78,6 +78,8 @@ def scaled_fields(body_mass: Any, body_inertia: Any, geom_friction: Any, scales:
     """The model's three randomised fields under `scales`, by name (MJX's Model and MuJoCo's
     MjModel both call them so)."""
     friction = xp.concatenate([geom_friction[:, :1] * scales.friction, geom_friction[:, 1:]], axis=1)
-    return {"body_mass": body_mass * scales.mass, "body_inertia": body_inertia * scales.mass[:, None],
+    extra = body_mass.shape[0] - scales.mass.shape[0]  # bodies after the character's (a ball) keep theirs
+    mass = xp.concatenate([scales.mass, xp.ones(extra, scales.mass.dtype)]) if extra else scales.mass
+    return {"body_mass": body_mass * mass, "body_inertia": body_inertia * mass[:, None],
             "geom_friction": friction}
 

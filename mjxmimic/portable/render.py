@@ -29,6 +29,7 @@ GHOST_PREFIX = "ghost/"
 GHOST_RGBA = (1.0, 0.62, 0.25, 0.3)
 PUSH_RGBA = (0.9, 0.1, 0.1, 1.0)
 GOAL_RGBA = (0.1, 0.75, 0.2, 1.0)
+TARGET_RGBA = (0.1, 0.75, 0.2, 0.6)  # the throw target's disc on the floor
 PUSH_ARROW_M_PER_N = 1.0 / 500.0  # arrow length per newton of push
 EGL_VENDOR_DIRS = ("/usr/share/glvnd/egl_vendor.d", "/etc/glvnd/egl_vendor.d")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
@@ -162,35 +163,53 @@ class Scene:
         self._lookat: np.ndarray | None = None
 
     def frame(self, qpos: Any, ghost_qpos: Any | None = None,
-              arrows: Iterable[tuple[Any, Any, Any]] = ()) -> np.ndarray:
-        """(height, width, 3) uint8 image of the pose(s), with `arrows` (tail, head, rgba) in world
-        coordinates (a push, a goal)."""
+              arrows: Iterable[tuple[Any, Any, Any]] = (), markers: Iterable[tuple[int, Any, Any, Any]] = (),
+              focus: Any = None) -> np.ndarray:
+        """(height, width, 3) uint8 image of the pose(s) (the character's part of qpos), with `arrows`
+        and `markers` (`decorate`) in world coordinates (a push, a goal, a thrown ball); the camera
+        follows `focus` (x, y), by default the root."""
         import mujoco
 
         d = self.data
-        d.qpos[: self.nq] = qpos
+        d.qpos[: self.nq] = qpos[: self.nq]
         if self.ghost:
-            d.qpos[self.nq : 2 * self.nq] = qpos if ghost_qpos is None else ghost_qpos
+            d.qpos[self.nq : 2 * self.nq] = qpos[: self.nq] if ghost_qpos is None else ghost_qpos[: self.nq]
         mujoco.mj_forward(self.model, d)
-        target = np.array([d.qpos[0], d.qpos[1], 0.8])
+        x, y = (d.qpos[0], d.qpos[1]) if focus is None else focus
+        target = np.array([x, y, 0.8])
         # Follow the root smoothly (a critically damped look-at keeps the floor from jittering).
         self._lookat = target if self._lookat is None else self._lookat + 0.2 * (target - self._lookat)
         self.camera.lookat[:] = self._lookat
         self.renderer.update_scene(d, camera=self.camera)
-        scene = self.renderer.scene
-        for tail, head, rgba in arrows:
-            if scene.ngeom >= scene.maxgeom:
-                break
-            geom = scene.geoms[scene.ngeom]
-            mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
-                                np.array(rgba, np.float32))
-            mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.04, np.asarray(tail, np.float64),
-                                 np.asarray(head, np.float64))
-            scene.ngeom += 1
+        decorate(self.renderer.scene, arrows, markers)
         return self.renderer.render()
 
     def close(self) -> None:
         self.renderer.close()
+
+
+def decorate(scene: Any, arrows: Iterable[tuple[Any, Any, Any]] = (),
+             markers: Iterable[tuple[int, Any, Any, Any]] = ()) -> None:
+    """Add arrows (tail, head, rgba) and markers (mjtGeom type, centre, size as a model geom's:
+    a cylinder's radius and half-height, rgba) to an MjvScene (a renderer's, or a viewer's
+    user_scn), as far as it has room."""
+    import mujoco
+
+    for tail, head, rgba in arrows:
+        if scene.ngeom >= scene.maxgeom:
+            return
+        geom = scene.geoms[scene.ngeom]
+        mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
+                            np.array(rgba, np.float32))
+        mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.04, np.asarray(tail, np.float64),
+                             np.asarray(head, np.float64))
+        scene.ngeom += 1
+    for kind, centre, size, rgba in markers:
+        if scene.ngeom >= scene.maxgeom:
+            return
+        mujoco.mjv_initGeom(scene.geoms[scene.ngeom], kind, np.asarray(size, np.float64), np.asarray(centre, np.float64),
+                            np.eye(3).ravel(), np.array(rgba, np.float32))
+        scene.ngeom += 1
 
 
 def check_video_path(path: Path) -> None:
@@ -251,15 +270,39 @@ def write_video(frames: Iterable[np.ndarray], path: Path, fps: float) -> int:
 def goal_arrow(env: Any) -> tuple[Any, Any, Any]:
     """A task's goal as a green arrow. heading: on the ground from under the character, the
     commanded direction, one metre per m/s of commanded speed; strike: pointing down at the
-    target's centre, red once it has been hit."""
+    target's centre, red once it has been hit; throw: pointing down at the target on the floor,
+    red once the ball has landed on it."""
     from mjxmimic.envs import step as step_lib
 
     if env.config.task.name == "strike":
         target = np.asarray(env.motion.goal[:3], np.float64)
         return target + [0.0, 0.0, 0.4], target, PUSH_RGBA if env.motion.goal[3] > 0 else GOAL_RGBA
+    if env.config.task.name == "throw":
+        goal = env.motion.goal
+        target = np.array([goal[0], goal[1], 0.05])
+        hit = goal[2] > 0 and goal[3] <= env.config.task.target_radius_m
+        return target + [0.0, 0.0, 0.8], target, PUSH_RGBA if hit else GOAL_RGBA
     yaw, speed = step_lib.goal(env.spec, env.motion, np)
     tail = np.array([env.data.qpos[0], env.data.qpos[1], 0.05])
     return tail, tail + float(speed) * np.array([np.cos(yaw), np.sin(yaw), 0.0]), GOAL_RGBA
+
+
+def goal_markers(env: Any, ball: bool = True) -> list[tuple[int, Any, Any, Any]]:
+    """The throw task's target (a disc of the target radius on the floor) and, with `ball`, the ball
+    (for a renderer whose model has no ball); none for other tasks."""
+    import mujoco
+
+    if env.config.task.name != "throw":
+        return []
+    radius = env.config.task.target_radius_m
+    goal = env.motion.goal
+    out = [(mujoco.mjtGeom.mjGEOM_CYLINDER, [goal[0], goal[1], 0.003], [radius, 0.003, 0.0], TARGET_RGBA)]
+    if ball:
+        from mjxmimic.core.scene import BALL_RGBA
+
+        r = env.spec.ball.radius_m
+        out.append((mujoco.mjtGeom.mjGEOM_SPHERE, env.data.qpos[-7:-4], [r, r, r], BALL_RGBA))
+    return out
 
 
 def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start: float = 0.0,
@@ -289,13 +332,18 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
         limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     policy = pf.policy()
-    scene = Scene(pf.character_xml, character.nq, ghost, width, height, terrain=env.spec.terrain)
+    throw = env.config.task.name == "throw"  # the camera backs off and follows the midpoint of the
+    view = {"distance": 8.0, "elevation": -25.0} if throw else {}  # character and the target, metres away
+    scene = Scene(pf.character_xml, character.nq, ghost, width, height, terrain=env.spec.terrain, **view)
+
+    def focus():
+        return 0.5 * (env.data.qpos[:2] + env.motion.goal[:2]) if throw else None
     info: dict[str, Any] = {"steps": 0, "fell": False, "reward": 0.0}
 
     def frames():
         obs = env.reset_at(start, clip=switches.get(0, 0))
         ref, _ = env.reference(env.time)
-        yield scene.frame(env.data.qpos, ref)
+        yield scene.frame(env.data.qpos, ref, markers=goal_markers(env), focus=focus())
         for k in range(limit):
             if k > 0 and k in switches:
                 obs = env.switch(switches[k])
@@ -306,7 +354,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
             info["steps"] += 1
             info["reward"] += s.reward
             ref, _ = env.reference(env.time)
-            yield scene.frame(env.data.qpos, ref, arrows)
+            yield scene.frame(env.data.qpos, ref, arrows, goal_markers(env), focus())
             if on_frame is not None:
                 on_frame(info["steps"])
             if s.failed or (s.done and not switches):

@@ -20,6 +20,24 @@ strike: hit a target with a body (the right foot for the spinkick). At reset the
     mix). Observation: the target relative to the root in the heading frame, and whether it has
     been hit. The target and the hit flag are the episode's goal state (`Motion.goal`).
 
+throw: throw a ball onto a target on the floor (the pitch clip). The ball (mjxmimic.core.scene, a
+    free body after the character) is carried by overwriting its position and velocity with the
+    hand's at the end of every control step that starts before `task.release_s` of clip time (a
+    kinematic carry: the same on MJX-JAX, MJX-Warp and MuJoCo C, no constraint to toggle); from
+    then on it flies freely, so it leaves the hand with the hand's velocity at the first control
+    step boundary at or after `task.release_s` (mjxmimic.envs.step.released). The
+    target is placed as strike's, on the floor. It lands when it first comes within
+    LAND_TOLERANCE_M of resting on the floor after release; where it landed is taken to be where the
+    ballistic prediction of the step before put it (the ball touches nothing but the floor, so the
+    flight is ballistic, and 1/30 s of rolling after the touch does not count). r_task =
+    exp(-THROW_SHAPE max(0, d - target radius)^2), d the distance from the target of where the
+    ball would land if it flew freely from now on (held: if let go now), and after landing of
+    where it landed: a shaped choice, DEEPMIMIC.md states only the 0.7 / 0.3 mix and that success is
+    the ball landing on the target. Success (a hit): it landed within `task.target_radius_m`.
+    Observation: the target and the ball relative to the root and the ball's velocity, all in the
+    heading frame, then whether the ball has been let go and whether it has landed. Goal state:
+    (target x, y, landed, d).
+
 While a task steers the character, the imitation reward grades the pose, not where the clip
 walks: the reference is turned about the vertical and moved so that its root stands where the
 character's does, facing its way (`align_reference`).
@@ -33,12 +51,17 @@ from mjxmimic.core import quat
 from mjxmimic.core.config import TaskConfig
 from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
 
-GOAL_SIZE = {"": 0, "heading": 3, "strike": 4}
+GOAL_SIZE = {"": 0, "heading": 3, "strike": 4, "throw": 11}
 # per-step metrics of each task (summed over an evaluation episode's running steps)
 METRICS = {"": (), "heading": ("reward/task", "task/speed_along", "task/speed"),
-           "strike": ("reward/task", "task/hit", "task/distance")}
+           "strike": ("reward/task", "task/hit", "task/distance"),
+           "throw": ("reward/task", "task/hit", "task/distance")}
 PLASTIC = 0.7548776662466927  # 1 / the plastic number: a well-spread additive recurrence
 SPEED_TOLERANCE = 0.15  # a heading episode succeeds when its speed along the goal is within 15 % of v*
+GRAVITY = 9.81  # m/s^2, MuJoCo's default, which the scene keeps
+HOLD_OFFSET = (0.0, 0.0, -0.08)  # throw: the ball's centre in the hand body's frame (beyond the wrist)
+LAND_TOLERANCE_M = 0.01  # throw: the ball has landed once its centre is this close to its radius
+THROW_SHAPE = 0.5  # throw: k of r_task = exp(-k max(0, d - radius)^2), d in m
 
 
 def clip_speed(lib: Any, clip: Any, xp: Any) -> Any:
@@ -88,6 +111,56 @@ def strike(task: TaskConfig, k: Kin, body: int, goal: Any, xp: Any) -> tuple[Any
     return r_task, xp.concatenate([goal[:3], hit.astype(goal.dtype)[None]]), distance
 
 
+def ball_in_hand(k: Kin, hand: int, xp: Any) -> tuple[Any, Any]:
+    """The held ball's free-joint (qpos (7,), qvel (6,)): at HOLD_OFFSET in the hand's frame, moving
+    with the hand (orientation the world's, so its angular velocity is the hand's in world axes)."""
+    r = xp.einsum("ij,j->i", k.xmat[hand], xp.asarray(HOLD_OFFSET, k.xipos.dtype))
+    w = k.angvel[hand]
+    v = k.linvel[hand] + xp.cross(w, r)
+    return xp.concatenate([k.xipos[hand] + r, xp.asarray([1.0, 0.0, 0.0, 0.0], r.dtype)]), xp.concatenate([v, w])
+
+
+def landing_point(pos: Any, vel: Any, radius: float, xp: Any) -> Any:
+    """Where (x, y) a ball at `pos` moving at `vel` comes down to `radius` above the floor in free
+    flight (straight down from where it is if it is already there)."""
+    height = xp.maximum(pos[2] - radius, 0.0)
+    fall = (vel[2] + xp.sqrt(vel[2] ** 2 + 2.0 * GRAVITY * height)) / GRAVITY
+    return pos[:2] + vel[:2] * fall
+
+
+def throw_start(task: TaskConfig, root_qpos: Any, event_seed: Any, xp: Any) -> Any:
+    """The throw goal state at reset: (target x, y, landed = 0, d = the target's distance from the
+    root), the target placed as strike's (`place_target`) on the floor."""
+    target = place_target(task, root_qpos, event_seed, xp)
+    d = xp.sqrt(xp.sum((target[:2] - root_qpos[:2]) ** 2))
+    return xp.stack([target[0], target[1], xp.zeros_like(d), d]).astype(xp.float32)
+
+
+def throw(task: TaskConfig, ball_pos: Any, ball_vel: Any, released: Any, radius: float, goal: Any,
+          xp: Any) -> tuple[Any, Any, Any, Any]:
+    """(r_task, the goal state after the step, d, hit) from the ball's state after the step (the
+    module docstring)."""
+    landed_before = goal[2] > 0
+    touched = released & (ball_pos[2] <= radius + LAND_TOLERANCE_M)
+    predicted = xp.sqrt(xp.sum((landing_point(ball_pos, ball_vel, radius, xp) - goal[:2]) ** 2))
+    d = xp.where(landed_before | touched, goal[3], predicted)
+    landed = landed_before | touched
+    hit = landed & (d <= task.target_radius_m)
+    r_task = xp.exp(-THROW_SHAPE * xp.maximum(0.0, d - task.target_radius_m) ** 2)
+    state = xp.stack([goal[0], goal[1], landed.astype(goal.dtype), d.astype(goal.dtype)])
+    return r_task, state, d, hit
+
+
+def throw_observation(k: Kin, goal: Any, ball_pos: Any, ball_vel: Any, released: Any, xp: Any) -> Any:
+    """The target (on the floor) and the ball relative to the root, the ball's velocity, all in the
+    heading frame; whether the ball has been let go, whether it has landed."""
+    root, turn = k.xipos[ROOT_BODY], -root_yaw(k, xp)
+    target = xp.concatenate([goal[:2], xp.zeros_like(goal[:1])]) - root
+    parts = [quat.rotate_yaw(target, turn, xp), quat.rotate_yaw(ball_pos - root, turn, xp),
+             quat.rotate_yaw(ball_vel, turn, xp), xp.stack([xp.asarray(released, goal.dtype), goal[2]])]
+    return xp.concatenate(parts).astype(xp.float32)
+
+
 def target_observation(k: Kin, goal: Any, xp: Any) -> Any:
     """The target relative to the root in the heading frame, and the hit flag."""
     relative = quat.rotate_yaw(goal[:3] - k.xipos[ROOT_BODY], -root_yaw(k, xp), xp)
@@ -119,7 +192,8 @@ def metrics_add(acc: dict[str, Any], active: Any, metrics: dict[str, Any], xp: A
 def metrics_summarize(task: str, acc: dict[str, Any], horizon: Any, failed: Any) -> dict[str, float]:
     """Per-episode sums (host arrays) -> the task's return (mean r_task per horizon step, 0 after
     a fall) and success rate. heading: success = no fall and the speed along the goal within
-    SPEED_TOLERANCE of v* (also reported: that speed over v*); strike: the target was hit."""
+    SPEED_TOLERANCE of v* (also reported: that speed over v*); strike: the target was hit; throw:
+    the ball landed on the target."""
     import numpy as np
 
     acc = {k: np.asarray(v, np.float64) for k, v in acc.items()}

@@ -4,7 +4,7 @@
     python -m mjxmimic.motion.clips.make_clips --check    # exit 1 if a committed file differs from what this writes
     python -m mjxmimic.motion.clips.make_clips --out DIR  # write elsewhere
 
-Clips (30 frames per second, looping "wrap"):
+Clips (30 frames per second; looping "wrap" but for pitch):
 
 - slow_walk: a slow forward walk, 1.4 s per cycle (two steps). Legs swing, knees flex in swing
   (about 60 deg), the stance foot rolls heel -> flat -> toe, arms counter-swing, the pelvis turns
@@ -12,6 +12,12 @@ Clips (30 frames per second, looping "wrap"):
 - squat: stand -> squat (thighs about level) -> stand in 2 s, feet flat and fixed, arms raised
   forward; the torso lean is solved per frame so the centre of mass stays over the feet.
 - wave: stand, raise the right arm, wave three times, lower it, in 3 s.
+- pitch: an overhand right-handed throw towards +x, not looping ("none"), 2.6 s: set (0 - 0.3 s),
+  wind-up with the chest turned away and the arm cocked behind (to 0.9 s), the throw (chest turns
+  through, the arm whips over and the elbow straightens), the ball let go at PITCH_RELEASE_S =
+  1.1 s, hand high and ahead of the shoulder, follow-through across the body, back to the set by
+  2.6 s. Feet stay planted (the pelvis turns 20 deg each way, so they slide a few cm). The throw
+  task (mjxmimic.task.goals) releases its ball at that time (task.release_s).
 
 Everything is keyframed in joint space with angles that mean something in the world frame (thigh
 pitch, foot pitch, pelvis turn) and turned into each joint's local quaternion. MuJoCo forward
@@ -185,9 +191,9 @@ class Poser:
         return out
 
 
-def make_clip(name: str, qpos: list[np.ndarray]) -> Clip:
+def make_clip(name: str, qpos: list[np.ndarray], loop: bool = True) -> Clip:
     frames = np.asarray(qpos)
-    return Clip(name=name, path=None, loop=True, durations=np.full(len(frames), 1.0 / FPS), qpos=frames)
+    return Clip(name=name, path=None, loop=loop, durations=np.full(len(frames), 1.0 / FPS), qpos=frames)
 
 
 # ------------------------------------------------------------------------------------ slow walk
@@ -365,9 +371,49 @@ def wave(poser: Poser) -> Clip:
     return make_clip("wave", poses + [poses[0].copy()])
 
 
+# ------------------------------------------------------------------------------------ pitch
+
+PITCH_S = 2.6
+PITCH_RELEASE_S = 1.1  # the ball leaves the hand (task.release_s of the throw task)
+# (time s, degrees) keys; the first and last are the set pose, so the periodic curve starts and
+# ends at rest
+PELVIS_YAW = [(0.0, 0), (0.3, 0), (0.9, -20), (1.1, 10), (1.35, 20), (1.9, 10), (2.6, 0)]
+CHEST_YAW = [(0.0, 0), (0.3, 0), (0.9, -50), (1.1, 0), (1.3, 35), (1.9, 20), (2.6, 0)]
+CHEST_PITCH = [(0.0, 0), (0.3, 0), (0.9, -8), (1.1, 10), (1.4, 30), (1.9, 12), (2.6, 0)]  # + leans forward
+ARM_RAISE = [(0.0, 8), (0.3, 20), (0.9, 95), (1.1, 100), (1.35, 60), (1.9, 25), (2.6, 8)]  # from the side
+ARM_SWING = [(0.0, 0), (0.3, 20), (0.9, -30), (1.1, 0), (1.3, 50), (1.9, 40), (2.6, 0)]  # + forward
+ARM_TWIST = [(0.0, 0), (0.3, -30), (0.9, -130), (1.05, -145), (1.1, -115), (1.15, -40), (1.35, 0),
+             (2.6, 0)]  # about the upper arm; -90 holds the flexed forearm up, below that it lays back
+ELBOW = [(0.0, 15), (0.3, 60), (0.9, 95), (1.1, 90), (1.25, 25), (1.9, 30), (2.6, 15)]
+GLOVE = [(0.0, 5), (0.3, 20), (0.9, 80), (1.1, 40), (1.35, 10), (2.6, 5)]  # left arm forward
+
+
+def _keyed(keys: list[tuple[float, float]], t: float) -> float:
+    return periodic_curve([(k / PITCH_S, v) for k, v in keys[:-1]], t / PITCH_S)
+
+
+def pitch_pose(poser: Poser, t: float) -> np.ndarray:
+    """The throw at time t: world turns of pelvis and chest, the right arm raised from the side,
+    swung forward about the vertical and twisted about its own axis, the elbow flexed."""
+    pelvis, chest_yaw = _keyed(PELVIS_YAW, t), _keyed(CHEST_YAW, t)
+    root = rot("z", pelvis)
+    chest = chain(rot("z", chest_yaw), rot("y", _keyed(CHEST_PITCH, t)))
+    head = rot("z", 0.3 * chest_yaw)
+    right = (chain(rot("z", chest_yaw + _keyed(ARM_SWING, t)), rot("x", RIGHT * _keyed(ARM_RAISE, t)),
+                   rot("z", _keyed(ARM_TWIST, t))), _keyed(ELBOW, t))
+    left = (chain(rot("z", chest_yaw), rot("x", LEFT * 8.0), rot("y", -_keyed(GLOVE, t))), 20.0)
+    legs = {side: (rot("z", pelvis), 6.0, rot("z", pelvis)) for side in (LEFT, RIGHT)}
+    return poser.ground(poser.pose(root, chest, head, legs, {RIGHT: right, LEFT: left}))
+
+
+def pitch(poser: Poser) -> Clip:
+    n = round(PITCH_S * FPS)
+    return make_clip("pitch", [pitch_pose(poser, k / FPS) for k in range(n + 1)], loop=False)
+
+
 # -------------------------------------------------------------------------------------- output
 
-BUILDERS = {"slow_walk.txt": slow_walk, "squat.txt": squat, "wave.txt": wave}
+BUILDERS = {"slow_walk.txt": slow_walk, "squat.txt": squat, "wave.txt": wave, "pitch.txt": pitch}
 
 
 def build_clips(character: Character | None = None) -> dict[str, Clip]:
