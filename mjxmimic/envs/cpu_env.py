@@ -93,26 +93,13 @@ class CpuEnv:
         qpos, qvel = step_lib.start_state(self.spec, clip, np.float32(t), np.float32(event_seed), np)
         return self.set_state(qpos, qvel, t, event_seed=event_seed, clip=clip)
 
-    def same_phase_time(self, clip: int) -> float:
-        """The time of clip number `clip` at the playing clip's phase of its cycle."""
-        durations = self.spec.lib.duration
-        phase = (float(self.motion.time) / float(durations[self.motion.clip])) % 1.0
-        return phase * float(durations[clip])
-
-    def observe_as(self, clip: int, time: float) -> np.ndarray:
-        """The observation of the present state as if clip number `clip` played at `time`
-        (nothing changes)."""
-        return self._observe(self.motion._replace(clip=int(clip), time=np.float32(time)))
-
-    def play(self, clip: int, time: float) -> None:
-        """Follow clip number `clip` from `time` on, from the present state (no reset)."""
-        self.motion = self.motion._replace(clip=int(clip), time=np.float32(time))
-
     def switch(self, clip: int) -> np.ndarray:
         """Play clip number `clip` from here on (the skill selector), at the same phase of its
         cycle; returns the observation, whose skill one-hot now names it."""
-        self.play(clip, self.same_phase_time(clip))
-        return self.observe_as(clip, float(self.motion.time))
+        durations = self.spec.lib.duration
+        phase = (float(self.motion.time) / float(durations[self.motion.clip])) % 1.0
+        self.motion = self.motion._replace(clip=int(clip), time=np.float32(phase * float(durations[clip])))
+        return self._observe(self.motion)
 
     def step(self, action: Any, external_force: Any = None, grade_paper: bool = False) -> Step:
         out = step_lib.control_step(self.spec, self.physics, self.data, self.motion,
