@@ -207,3 +207,32 @@ def test_warp_batches_the_randomised_fields_as_jax_does(character):
     np.testing.assert_allclose(out["warp"], out["jax"], atol=0.02)
     assert np.abs(out["warp"][0] - out["warp"][1]).max() > 0.05  # less friction
     assert out["warp"][2, 0] < out["warp"][0, 0] - 0.3  # heavier: less speed from the push
+
+
+def test_training_perturbations_stay_out_of_evaluation(tmp_path):
+    """NR, push tests and playback grade a push-trained, randomised policy as any other: the
+    evaluation config drops the events and the ranges, and training's evaluator gets an env
+    built from it."""
+    import sys
+    from pathlib import Path
+
+    from mjxmimic.core.config import evaluation_config
+    from mjxmimic.runs.train_loop import train
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from standin_env import StandInEnv
+
+    config = make_config("cpu", {**RANDOMISED, "env.events": "push", "env.push_force_n": 300.0,
+                                 "run.total_samples": 512, "run.eval_every": 512, "run.eval_at_start": "false"})
+    graded = evaluation_config(config)
+    assert (graded.env.events, graded.env.friction_range, graded.env.mass_range) == ("", (1.0, 1.0), (1.0, 1.0))
+    assert graded.ppo == config.ppo and graded.env.control_hz == config.env.control_hz
+    assert evaluation_config(graded) == graded
+    built = []
+
+    def factory(cfg):
+        built.append(cfg)
+        return StandInEnv()
+
+    train(config, tmp_path / "run", env_factory=factory, progress=False)
+    assert built == [config, graded]  # the training env, then the evaluator's

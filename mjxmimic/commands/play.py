@@ -213,6 +213,7 @@ def run(args: argparse.Namespace) -> int:
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
 
+    from mjxmimic.core.config import evaluation_config
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import composite
     from mjxmimic.portable.playback import evaluate
@@ -227,14 +228,14 @@ def run(args: argparse.Namespace) -> int:
     clips = pf.clips()
     names = [c.name for c in clips]
     if args.clip is not None and args.clip in names:
-        env = CpuEnv(pf.config(), character, clips, pf.weights())
+        env = CpuEnv(evaluation_config(pf.config()), character, clips, pf.weights())
         return _play_clips(args, pf, env, names.index(args.clip))
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source
 
         clip = load_clip_source(args.clip, character, args.clips_dir)
     elif len(clips) > 1:
-        env = CpuEnv(pf.config(), character, clips, pf.weights())
+        env = CpuEnv(evaluation_config(pf.config()), character, clips, pf.weights())
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:
@@ -244,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
         clip = clips[0]
     if args.skill_sequence is not None:
         raise UserError("--skill-sequence needs a policy trained on a dataset of clips; this one has one clip")
-    env = CpuEnv(pf.config(), character, clip)
+    env = CpuEnv(evaluation_config(pf.config()), character, clip)
     policy = pf.policy()
     starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)
 

@@ -318,6 +318,13 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
     return apply_overrides(config, overrides or {})
 
 
+def evaluation_config(config: Config) -> Config:
+    """The conditions that evaluation, push tests and playback measure in (EVALUATION.md): the
+    run's settings without what only perturbs training (episode events such as pushes, domain
+    randomisation), so that a policy trained with them is graded as any other."""
+    return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0)})
+
+
 def _scale_range_ok(factors: tuple[float, ...]) -> bool:
     return len(factors) == 2 and 0 < factors[0] <= factors[1] < float("inf")
 

@@ -66,8 +66,8 @@ class Composite:
         return self.experts[0].character()
 
     def config(self) -> config_lib.Config:
-        """The first expert's config without training events (the control settings are shared)."""
-        return config_lib.apply_overrides(self.experts[0].config(), {"env.events": ""})
+        """The first expert's config in evaluation conditions (the control settings are shared)."""
+        return config_lib.evaluation_config(self.experts[0].config())
 
     def clips(self) -> list:
         """Every expert's clip, clip id = expert index."""

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from mjxmimic.core.config import evaluation_config
 from mjxmimic.core.errors import UserError
 
 GHOST_PREFIX = "ghost/"
@@ -322,14 +323,14 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     character = pf.character()
     switches = {}
     if skill_sequence is not None:
-        env = CpuEnv(pf.config(), character, pf.clips(), pf.weights())
+        env = CpuEnv(evaluation_config(pf.config()), character, pf.clips(), pf.weights())
         skills.check_selectable(env)
         sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
         switches = skills.switch_steps(env, sequence)
         total = sum(skills.segment_steps(env, sequence))
         limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))
     else:
-        env = CpuEnv(pf.config(), character, clip if clip is not None else pf.clip())
+        env = CpuEnv(evaluation_config(pf.config()), character, clip if clip is not None else pf.clip())
         limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     policy = pf.policy()
     throw = env.config.task.name == "throw"  # the camera backs off and follows the midpoint of the

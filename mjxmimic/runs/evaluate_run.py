@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable
 
+from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
 
@@ -28,7 +29,7 @@ def load_run_policy(run_dir: Path, env: Any = None, which: str = "latest",
     if env is None:
         from mjxmimic.envs.mjx_env import make_env
 
-        env = make_env(config)
+        env = make_env(config_lib.evaluation_config(config))
     params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, step, best)
     networks = make_networks(env.observation_size, env.action_size, config)
     return config, env, make_policy_fn(networks, params, deterministic=True), meta, step

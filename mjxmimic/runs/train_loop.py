@@ -131,7 +131,9 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         env = env_factory(config)
     trainer = make_trainer(env, config)
     run_cfg = config.run
-    evaluator = Evaluator(env, config, trainer.make_policy)
+    graded = config_lib.evaluation_config(config)  # training-only perturbations off (pushes, randomisation)
+    eval_env = env_factory(graded) if env_factory is not None and graded != config else env
+    evaluator = Evaluator(eval_env, config, trainer.make_policy)
     # The train step compiles in a thread while the env states are drawn; the evaluator compiles
     # in another while training starts (compilation is most of a run's first minute).
     step_compiled = _in_background(trainer.compile_train_step)
