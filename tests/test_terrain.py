@@ -119,7 +119,7 @@ def test_heightmap_policy_numpy_equals_jax():
 
     from mjxmimic.learn import networks
     from mjxmimic.learn.ppo import _init_output_layer
-    from mjxmimic.portable.policy_numpy import HEIGHTMAP_STRIDES, NumpyPolicy
+    from mjxmimic.portable.policy_numpy import HEIGHTMAP_STRIDES, NumpyPolicy, NumpyValue
 
     assert HEIGHTMAP_STRIDES == tuple(s for _, _, s in networks.CONV_LAYERS)
     obs_size, act, shape = 40 + 7 * 9, 5, (7, 9)
@@ -141,6 +141,46 @@ def test_heightmap_policy_numpy_equals_jax():
     bumped = obs.copy()
     bumped[:, -5] += 3.0
     assert not np.allclose(pol.logits(bumped), pol.logits(obs))
+    # the value network reads the heightmap through an encoder of its own
+    val = NumpyValue({"normalizer": {"mean": mean, "std": std},
+                      "value": jax.tree_util.tree_map(np.asarray, dict(value["params"]))}, shape)
+    want = np.asarray(nets.value_network.apply(normalizer, value, jnp.asarray(obs)))
+    np.testing.assert_allclose(val(obs), want, atol=1e-5)
+    assert not np.allclose(val(bumped), val(obs))
+
+
+def test_onnx_export_of_a_terrain_policy_runs_its_encoders(character, tmp_path):
+    """The ONNX graph of a terrain policy (conv encoders in policy and value) computes what the
+    numpy forward pass does, and reading it back gives the npz file's arrays."""
+    onnx = pytest.importorskip("onnx")
+    from brax.training.acme import running_statistics
+    from onnx.reference import ReferenceEvaluator
+
+    from mjxmimic.learn import networks
+    from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.portable import policy_file, policy_onnx
+
+    config = make_config("cpu", {"terrain.kind": "gaps", "task.name": "heading"})
+    clip = load_clip_source("slow_walk", character)
+    obs_size = sum(p["size"] for p in policy_file.observation_layout(character, config, [clip.name]))
+    nets = networks.make_heightmap_networks(obs_size, character.action_size, config.ppo.policy_hidden,
+                                            config.ppo.value_hidden, config.terrain.heightmap_shape,
+                                            running_statistics.normalize)
+    rng = np.random.default_rng(3)
+    params = {"normalizer": {"mean": rng.normal(size=obs_size).astype(np.float32),
+                             "std": rng.uniform(0.5, 2, obs_size).astype(np.float32)},
+              "policy": jax.tree_util.tree_map(np.asarray, dict(nets.policy_network.init(jax.random.PRNGKey(1))["params"])),
+              "value": jax.tree_util.tree_map(np.asarray, dict(nets.value_network.init(jax.random.PRNGKey(2))["params"]))}
+    pf = policy_file.make_policy_file(config, character, clip, params)
+    assert pf.policy().encoder and pf.value().encoder
+    path = policy_onnx.write_onnx(pf, tmp_path / "terrain.onnx")
+    obs = rng.normal(size=(8, obs_size)).astype(np.float32)
+    action, value = ReferenceEvaluator(onnx.load(str(path))).run(None, {"obs": obs})
+    np.testing.assert_allclose(action, pf.policy()(obs), atol=1e-5)
+    np.testing.assert_allclose(value[:, 0], pf.value()(obs), atol=1e-4)
+    back = policy_onnx.read_onnx(path)
+    for key, array in pf.arrays().items():
+        np.testing.assert_array_equal(back.arrays()[key], array)
 
 
 @pytest.mark.slow

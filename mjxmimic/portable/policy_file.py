@@ -107,7 +107,7 @@ class PolicyFile:
         if not self.has_value():
             raise UserError(f"{self.path}: the policy file lacks its value network (exported before it was "
                             f"carried); re-export it with `mjxmimic export RUN`")
-        return NumpyValue(self.params)
+        return NumpyValue(self.params, _heightmap_shape(self.config()))
 
     def config(self) -> config_lib.Config:
         """The run's config (playback rebuilds its environment settings from it)."""

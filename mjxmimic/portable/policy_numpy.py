@@ -68,23 +68,48 @@ def mlp(obs: Any, mean: Any, std: Any, layers: list[tuple[Any, Any]], xp: Any = 
     return h @ kernel + bias
 
 
-class NumpyValue:
-    """The value network (Brax's PPO value MLP on the same normalised observation, one output):
-    the expected discounted return from a state, which a composite's gate compares."""
+def encoder_layers(params: Mapping[str, Any], net: str, heightmap_shape: Any) -> list[tuple[Any, Any]]:
+    """[(kernel, bias)] of conv_0..2 and encoder of network `net`: a terrain network's heightmap
+    encoder, [] for a plain MLP."""
+    tree = params[net]
+    names = [n for n in _ENCODER if n in tree]
+    if names and (len(names) != len(_ENCODER) or heightmap_shape is None):
+        raise ValueError(f"a heightmap {net} network needs {', '.join(_ENCODER)} and the heightmap shape, got "
+                         f"{sorted(tree)}")
+    return [(tree[n]["kernel"], tree[n]["bias"]) for n in names]
 
-    def __init__(self, params: Mapping[str, Any]):
-        if any(n in params["value"] for n in _ENCODER):
-            raise ValueError("the value network has a heightmap encoder, which the numpy value does not run")
+
+def encode(z: np.ndarray, encoder: list[tuple[np.ndarray, np.ndarray]], heightmap_shape: tuple[int, int]) -> np.ndarray:
+    """[state, heightmap] -> [state, encoding] of the normalised observation (the module docstring)."""
+    rows, cols = heightmap_shape
+    h = z[..., -rows * cols:].reshape(z.shape[:-1] + (rows, cols, 1))
+    for (kernel, bias), stride in zip(encoder[:-1], HEIGHTMAP_STRIDES):
+        h = np.maximum(conv_same(h, kernel, bias, stride), 0.0)
+    kernel, bias = encoder[-1]
+    h = np.maximum(h.reshape(h.shape[:-3] + (-1,)) @ kernel + bias, 0.0)
+    return np.concatenate([z[..., : -rows * cols], h], axis=-1)
+
+
+class NumpyValue:
+    """The value network (Brax's PPO value MLP on the same normalised observation, one output;
+    a terrain network encodes the heightmap first): the expected discounted return from a state,
+    which a composite's gate compares."""
+
+    def __init__(self, params: Mapping[str, Any], heightmap_shape: Any = None):
         self.mean = np.asarray(params["normalizer"]["mean"], np.float64)
         self.std = np.asarray(params["normalizer"]["std"], np.float64)
         self.layers = [(np.asarray(k, np.float64), np.asarray(b, np.float64))
                        for k, b in ordered_layers(params, "value")]
+        self.encoder = [(np.asarray(k, np.float64), np.asarray(b, np.float64))
+                        for k, b in encoder_layers(params, "value", heightmap_shape)]
+        self.heightmap_shape = None if not self.encoder else (int(heightmap_shape[0]), int(heightmap_shape[1]))
         if self.layers[-1][1].shape != (1,):
             raise ValueError(f"the value network's last layer has {self.layers[-1][1].shape[0]} outputs, not 1")
 
     def __call__(self, obs: Any) -> np.ndarray:
         """V(obs); obs may be batched (..., observation_size)."""
-        return mlp(obs, self.mean, self.std, self.layers)[..., 0]
+        z = (np.asarray(obs, np.float64) - self.mean) / self.std
+        return mlp(encode(z, self.encoder, self.heightmap_shape) if self.encoder else z, 0.0, 1.0, self.layers)[..., 0]
 
 
 class NumpyPolicy:
@@ -122,14 +147,8 @@ class NumpyPolicy:
     def from_params(cls, params: Mapping[str, Any], heightmap_shape: Any = None) -> NumpyPolicy:
         """From {"normalizer": {"mean", "std"}, "policy": {"hidden_0": {"kernel", "bias"}, ...}}
         (and conv_0..2, encoder for a heightmap policy, whose heightmap is rows x cols)."""
-        policy = params["policy"]
-        encoder = [n for n in _ENCODER if n in policy]
-        if encoder and (len(encoder) != len(_ENCODER) or heightmap_shape is None):
-            raise ValueError(f"a heightmap policy needs {', '.join(_ENCODER)} and the heightmap shape, got "
-                             f"{sorted(policy)}")
         return cls(params["normalizer"]["mean"], params["normalizer"]["std"], ordered_layers(params, "policy"),
-                   encoder=[(policy[n]["kernel"], policy[n]["bias"]) for n in encoder],
-                   heightmap_shape=heightmap_shape)
+                   encoder=encoder_layers(params, "policy", heightmap_shape), heightmap_shape=heightmap_shape)
 
     @property
     def observation_size(self) -> int:
@@ -142,17 +161,7 @@ class NumpyPolicy:
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
         z = (np.asarray(obs, np.float64) - self.mean) / self.std
-        return mlp(self._encode(z) if self.encoder else z, 0.0, 1.0, self.layers)
-
-    def _encode(self, z: np.ndarray) -> np.ndarray:
-        """[state, heightmap] -> [state, encoding] (the module docstring)."""
-        rows, cols = self.heightmap_shape
-        h = z[..., -rows * cols:].reshape(z.shape[:-1] + (rows, cols, 1))
-        for (kernel, bias), stride in zip(self.encoder[:-1], HEIGHTMAP_STRIDES):
-            h = np.maximum(conv_same(h, kernel, bias, stride), 0.0)
-        kernel, bias = self.encoder[-1]
-        h = np.maximum(h.reshape(h.shape[:-3] + (-1,)) @ kernel + bias, 0.0)
-        return np.concatenate([z[..., : -rows * cols], h], axis=-1)
+        return mlp(encode(z, self.encoder, self.heightmap_shape) if self.encoder else z, 0.0, 1.0, self.layers)
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""

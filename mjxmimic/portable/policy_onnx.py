@@ -1,5 +1,6 @@
 """The policy file as ONNX (optional, needs the `onnx` package): the graph computes the
-deterministic action, and the manifest, the character XML and the clips ride in its metadata
+deterministic action and, where the file carries it, the value (a terrain network's heightmap
+encoder included); the manifest, the character XML and the clips ride in its metadata
 (mjxmimic.portable.policy_file has the contents and the npz format)."""
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import numpy as np
 from mjxmimic import __version__
 from mjxmimic.core.errors import UserError
 from mjxmimic.portable.policy_file import PolicyFile, params_from_arrays, parse_manifest
+from mjxmimic.portable.policy_numpy import HEIGHTMAP_STRIDES
 
 
 def onnx_package():
@@ -22,20 +24,63 @@ def onnx_package():
     return onnx
 
 
-def _mlp_nodes(helper, numpy_helper, net: dict, prefix: str, h: str) -> tuple[str, list, list]:
-    """(output name, initializers, nodes) of one MLP: relu after every layer but the last."""
-    inits, nodes = [], []
-    for i in range(len(net)):
-        name = f"hidden_{i}"
-        kernel, bias, out = f"{prefix}/{name}/kernel", f"{prefix}/{name}/bias", f"{prefix}/{name}/out"
-        inits += [numpy_helper.from_array(np.asarray(net[name]["kernel"], np.float32), kernel),
-                  numpy_helper.from_array(np.asarray(net[name]["bias"], np.float32), bias)]
-        nodes += [helper.make_node("MatMul", [h, kernel], [f"{prefix}/{name}/mm"]),
-                  helper.make_node("Add", [f"{prefix}/{name}/mm", bias], [out])]
-        h = out
-        if i < len(net) - 1:
-            nodes.append(helper.make_node("Relu", [h], [f"{prefix}/{name}/relu"]))
-            h = f"{prefix}/{name}/relu"
+def _dense(helper, numpy_helper, layer: dict, name: str, h: str, relu: bool) -> tuple[str, list, list]:
+    """(output name, initializers, nodes) of h @ kernel + bias (then relu), the arrays under `name`."""
+    kernel, bias = f"{name}/kernel", f"{name}/bias"
+    inits = [numpy_helper.from_array(np.asarray(layer["kernel"], np.float32), kernel),
+             numpy_helper.from_array(np.asarray(layer["bias"], np.float32), bias)]
+    nodes = [helper.make_node("MatMul", [h, kernel], [f"{name}/mm"]),
+             helper.make_node("Add", [f"{name}/mm", bias], [f"{name}/out"])]
+    if relu:
+        nodes.append(helper.make_node("Relu", [f"{name}/out"], [f"{name}/relu"]))
+    return f"{name}/relu" if relu else f"{name}/out", inits, nodes
+
+
+def _encoder_nodes(helper, numpy_helper, net: dict, prefix: str, z: str, obs_size: int,
+                   heightmap_shape: tuple[int, int]) -> tuple[str, list, list]:
+    """(output name, initializers, nodes) of a terrain network's heightmap encoder (policy_numpy's
+    `encode`): [state, heightmap] -> [state, encoding]. The conv kernels keep Flax's (kh, kw, in,
+    out) arrays under their names and are transposed to ONNX's (out, in, kh, kw) in the graph, so
+    that reading the file back gives the npz file's arrays; SAME_UPPER padding is Flax's SAME."""
+    rows, cols = heightmap_shape
+    split = obs_size - rows * cols
+    const = f"graph/{prefix}"
+    values = {"start": [0], "split": [split], "end": [obs_size], "axis": [1], "grid": [-1, 1, rows, cols],
+              "flat": [0, -1]}
+    inits = [numpy_helper.from_array(np.array(v, np.int64), f"{const}/{k}") for k, v in values.items()]
+    nodes = [helper.make_node("Slice", [z, f"{const}/start", f"{const}/split", f"{const}/axis"], [f"{const}/state"]),
+             helper.make_node("Slice", [z, f"{const}/split", f"{const}/end", f"{const}/axis"], [f"{const}/map"]),
+             helper.make_node("Reshape", [f"{const}/map", f"{const}/grid"], [f"{const}/x0"])]
+    x = f"{const}/x0"
+    for i, stride in enumerate(HEIGHTMAP_STRIDES):
+        name = f"{prefix}/conv_{i}"
+        kernel = np.asarray(net[f"conv_{i}"]["kernel"], np.float32)
+        inits += [numpy_helper.from_array(kernel, f"{name}/kernel"),
+                  numpy_helper.from_array(np.asarray(net[f"conv_{i}"]["bias"], np.float32), f"{name}/bias")]
+        nodes += [helper.make_node("Transpose", [f"{name}/kernel"], [f"{name}/oihw"], perm=[3, 2, 0, 1]),
+                  helper.make_node("Conv", [x, f"{name}/oihw", f"{name}/bias"], [f"{name}/out"],
+                                   strides=[stride, stride], kernel_shape=list(kernel.shape[:2]), auto_pad="SAME_UPPER"),
+                  helper.make_node("Relu", [f"{name}/out"], [f"{name}/relu"])]
+        x = f"{name}/relu"
+    nodes += [helper.make_node("Transpose", [x], [f"{const}/nhwc"], perm=[0, 2, 3, 1]),
+              helper.make_node("Reshape", [f"{const}/nhwc", f"{const}/flat"], [f"{const}/flat_out"])]
+    h, more, extra = _dense(helper, numpy_helper, net["encoder"], f"{prefix}/encoder", f"{const}/flat_out", True)
+    nodes += [*extra, helper.make_node("Concat", [f"{const}/state", h], [f"{const}/joined"], axis=1)]
+    return f"{const}/joined", inits + more, nodes
+
+
+def _network_nodes(helper, numpy_helper, net: dict, prefix: str, z: str, obs_size: int,
+                   heightmap_shape: tuple[int, int] | None) -> tuple[str, list, list]:
+    """(output name, initializers, nodes) of one network on the normalised observation `z`: the
+    heightmap encoder where it has one, then its MLP (relu after every layer but the last)."""
+    h, inits, nodes = z, [], []
+    if "encoder" in net:
+        h, inits, nodes = _encoder_nodes(helper, numpy_helper, net, prefix, z, obs_size, heightmap_shape)
+    count = sum(1 for name in net if name.startswith("hidden_"))
+    for i in range(count):
+        h, more, extra = _dense(helper, numpy_helper, net[f"hidden_{i}"], f"{prefix}/hidden_{i}", h, i < count - 1)
+        inits += more
+        nodes += extra
     return h, inits, nodes
 
 
@@ -45,15 +90,13 @@ def to_onnx(pf: PolicyFile):
     from onnx import TensorProto, helper, numpy_helper
 
     policy = pf.policy()
-    if policy.encoder:
-        raise UserError("ONNX export covers MLP policies; a terrain policy's heightmap encoder is not written "
-                        "to ONNX yet (use the npz file)")
     obs, act = policy.observation_size, policy.action_size
     inits = [numpy_helper.from_array(np.asarray(pf.params["normalizer"][k], np.float32), f"normalizer/{k}")
              for k in ("mean", "std")]
     nodes = [helper.make_node("Sub", ["obs", "normalizer/mean"], ["centred"]),
              helper.make_node("Div", ["centred", "normalizer/std"], ["h_in"])]
-    h, more, extra = _mlp_nodes(helper, numpy_helper, pf.params["policy"], "policy", "h_in")
+    h, more, extra = _network_nodes(helper, numpy_helper, pf.params["policy"], "policy", "h_in", obs,
+                                    policy.heightmap_shape)
     inits += more
     nodes += extra
     inits += [numpy_helper.from_array(np.array([0], np.int64), "slice/start"),
@@ -63,7 +106,8 @@ def to_onnx(pf: PolicyFile):
               helper.make_node("Tanh", ["loc"], ["action"])]
     outputs = [helper.make_tensor_value_info("action", TensorProto.FLOAT, ["N", act])]
     if pf.has_value():  # V(obs) as a second output, [N, 1]
-        v, more, extra = _mlp_nodes(helper, numpy_helper, pf.params["value"], "value", "h_in")
+        v, more, extra = _network_nodes(helper, numpy_helper, pf.params["value"], "value", "h_in", obs,
+                                        policy.heightmap_shape)
         inits += more
         nodes += [*extra, helper.make_node("Identity", [v], ["value"])]
         outputs.append(helper.make_tensor_value_info("value", TensorProto.FLOAT, ["N", 1]))
