@@ -44,9 +44,9 @@ class Scene(NamedTuple):
     model: mujoco.MjModel
     contact_geoms: np.ndarray  # (S,) the geom id that sensor i watches
     contact_adr: np.ndarray  # (S,) sensordata address of sensor i's "found" count
-    nq: int = 0  # the character's qpos, qvel and bodies: a prefix of the model's
-    nv: int = 0
-    nbody: int = 0
+    nq: int  # the character's qpos, qvel and bodies: a prefix of the model's
+    nv: int
+    nbody: int
     ball: int = -1  # the ball's body id (the last body), -1 without one
 
 

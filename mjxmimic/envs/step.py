@@ -169,7 +169,7 @@ def _task_body(config: Config, scene: Scene) -> int:
 
     name = getattr(config.task, key)
     body = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, name)
-    if not 0 < body < (scene.nbody or scene.model.nbody):
+    if not 0 < body < scene.nbody:
         raise UserError(f"config key 'task.{key}': the character has no body {name!r}")
     return body
 
@@ -336,9 +336,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     ref_qpos, ref_qvel = motion_lib.sample(lib, clip, t, xp)  # the unshifted root
     targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
     nbody = spec.layout.body_mass.shape[0]
-    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, nbody, xp)
-    if events is not None and external_force is not None and external_force.shape[0] > events.shape[0]:
-        events = xp.concatenate([events, xp.zeros_like(external_force[events.shape[0]:])])  # a ball's rows
+    rows = nbody if external_force is None else external_force.shape[0]  # a caller's may cover a ball's body
+    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, rows, xp)
     if events is not None or external_force is not None:
         external_force = (0.0 if events is None else events) + (0.0 if external_force is None else external_force)
     scales = randomise.draw(env, motion.event_seed, nbody, xp)

@@ -88,7 +88,7 @@ class CpuPhysics:
 
     def kinematics(self, qpos: Any, qvel: Any) -> Kin:
         d, scene = self._scratch, self.scene
-        nq, nv, nbody = scene.nq or self.model.nq, scene.nv or self.model.nv, scene.nbody or self.model.nbody
+        nq, nv, nbody = scene.nq, scene.nv, scene.nbody
         d.qpos[:nq] = qpos[:nq]
         d.qvel[:nv] = qvel[:nv]
         mujoco.mj_kinematics(self.model, d)

@@ -101,7 +101,7 @@ class MjxPhysics:
             self.sys = mjx.put_model(scene.model, impl="jax")
             self._data0 = mjx.make_data(self.sys)
         self._tree = forward_kinematics.read_tree(scene.model, scene.nbody)
-        self._nq, self._nv = scene.nq or scene.model.nq, scene.nv or scene.model.nv  # the character's
+        self._nq, self._nv = scene.nq, scene.nv  # the character's
         self._extra_dofs = scene.model.nv - self._nv  # a ball's, after the character's
 
     def init(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:

@@ -151,18 +151,12 @@ def compose(experts: list[PolicyFile], temperature: float = DEFAULT_TEMPERATURE)
 
 
 def write(c: Composite, path: Path) -> Path:
-    """Atomically (a temporary file renamed into place)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Atomically (policy_file.save_arrays)."""
     arrays = {f"expert/{e}/{k}": v for e, pf in enumerate(c.experts) for k, v in pf.arrays().items()}
     arrays["manifest"] = np.array(json.dumps(c.manifest, indent=1))
     arrays["character_xml"] = np.array(c.experts[0].character_xml)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as f:
-        np.savez_compressed(f, **arrays)
-    tmp.replace(path)
-    c.path = path
-    return path
+    c.path = policy_file.save_arrays(arrays, path)
+    return c.path
 
 
 def is_composite(path: Path) -> bool:
@@ -261,11 +255,8 @@ def play(c: Composite, seconds: float = 10.0, start: float = 0.0, expert: str | 
     u = np.random.default_rng(seed).uniform(size=steps)
     chosen, heights, bad = [], [], False
     for k in range(steps):
-        force = None
-        if push is not None:
-            newtons, at, turn = push
-            active = float(at - 1e-6 <= k * env.control_dt < at + push_protocol.PUSH_S - 1e-6)
-            force = push_protocol.wrench(env.data.qpos, newtons, turn, active, env.model.nbody, np)
+        force = None if push is None else \
+            push_protocol.scheduled(env.data.qpos, push, k, env.control_dt, env.model.nbody, np)[0]
         s, d = player.step(u[k], force)
         chosen.append(int(d.choice))
         heights.append(float(d.root_height))

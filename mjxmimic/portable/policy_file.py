@@ -356,12 +356,16 @@ def _as_numpy(params: dict[str, Any]) -> dict[str, Any]:
 
 
 def write_npz(pf: PolicyFile, path: Path) -> Path:
-    """Write atomically (a temporary file renamed into place): nothing half-written."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     arrays = pf.arrays()
     arrays["manifest"] = np.array(json.dumps(pf.manifest, indent=1))
     arrays["character_xml"] = np.array(pf.character_xml)
+    return save_arrays(arrays, path)
+
+
+def save_arrays(arrays: dict[str, np.ndarray], path: Path) -> Path:
+    """A compressed npz written atomically (a temporary file renamed into place): nothing half-written."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "wb") as f:
         np.savez_compressed(f, **arrays)

@@ -90,6 +90,14 @@ def encode(z: np.ndarray, encoder: list[tuple[np.ndarray, np.ndarray]], heightma
     return np.concatenate([z[..., : -rows * cols], h], axis=-1)
 
 
+def forward(obs: Any, mean: np.ndarray, std: np.ndarray, encoder: list[tuple[np.ndarray, np.ndarray]],
+            heightmap_shape: tuple[int, int] | None, layers: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """One network on raw observations: normalise, encode the heightmap where there is an encoder,
+    then the MLP (float64)."""
+    z = (np.asarray(obs, np.float64) - mean) / std
+    return mlp(encode(z, encoder, heightmap_shape) if encoder else z, 0.0, 1.0, layers)
+
+
 class NumpyValue:
     """The value network (Brax's PPO value MLP on the same normalised observation, one output;
     a terrain network encodes the heightmap first): the expected discounted return from a state,
@@ -108,8 +116,7 @@ class NumpyValue:
 
     def __call__(self, obs: Any) -> np.ndarray:
         """V(obs); obs may be batched (..., observation_size)."""
-        z = (np.asarray(obs, np.float64) - self.mean) / self.std
-        return mlp(encode(z, self.encoder, self.heightmap_shape) if self.encoder else z, 0.0, 1.0, self.layers)[..., 0]
+        return forward(obs, self.mean, self.std, self.encoder, self.heightmap_shape, self.layers)[..., 0]
 
 
 class NumpyPolicy:
@@ -160,8 +167,7 @@ class NumpyPolicy:
 
     def logits(self, obs: Any) -> np.ndarray:
         """The network output (..., 2 * action_size): loc, then the pre-softplus scale."""
-        z = (np.asarray(obs, np.float64) - self.mean) / self.std
-        return mlp(encode(z, self.encoder, self.heightmap_shape) if self.encoder else z, 0.0, 1.0, self.layers)
+        return forward(obs, self.mean, self.std, self.encoder, self.heightmap_shape, self.layers)
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""

@@ -382,10 +382,8 @@ def push_at_step(env: Any, push: tuple[float, float, float] | None, k: int) -> t
 
     if push is None:
         return None, []
-    newtons, at, turn = push
-    active = float(at - 1e-6 <= k * env.control_dt < at + push_protocol.PUSH_S - 1e-6)
-    force = push_protocol.wrench(env.data.qpos, newtons, turn, active, env.model.nbody, np)
-    if not active:
+    force, acting = push_protocol.scheduled(env.data.qpos, push, k, env.control_dt, env.model.nbody, np)
+    if not acting:
         return force, []
     head = env.data.xipos[ROOT_BODY].copy()
     return force, [(head - force[ROOT_BODY, :3] * PUSH_ARROW_M_PER_N, head, PUSH_RGBA)]

@@ -52,6 +52,15 @@ def wrench(qpos: Any, force_n: Any, turn: Any, active: Any, nbody: int, xp: Any)
     return xp.where(on_root[:, None], f[None, :], 0.0).astype(xp.float32)
 
 
+def scheduled(qpos: Any, push: tuple[float, float, float], step: int, control_dt: float, nbody: int,
+              xp: Any) -> tuple[Any, bool]:
+    """(wrench, acting) at control step `step` of one scheduled `push` (force N, start time s, turn
+    from the facing), which acts for PUSH_S as the test's does (render --push, play --push-once)."""
+    newtons, at, turn = push
+    acting = at - 1e-6 <= step * control_dt < at + PUSH_S - 1e-6
+    return wrench(qpos, newtons, turn, float(acting), nbody, xp), acting
+
+
 def largest_survived_force(survival_rate: Callable[[float], float], resolution: float = RESOLUTION_N,
                            max_force: float = MAX_FORCE_N) -> tuple[float, list[tuple[float, float]]]:
     """The largest force (N) whose survival rate is at least SURVIVAL, to within `resolution`:
