@@ -195,6 +195,12 @@ def test_plan_and_train_args(tmp_path, capsys):
     assert f"{a0.name}: skip (finished)" in out and f"{r0.name}: resume" in out
     assert f"mjxmimic train --out {spec.run_dir(r1)} --preset cpu --clip slow_walk --seed 1" in out
     assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before
+    # --only picks runs by name pattern; a pattern that matches none is one line naming the runs
+    assert cli.main(["sweep", str(path), "--dry-run", "--gpus", "none", "--only", "*-s1"]) == 0
+    out = capsys.readouterr().out
+    assert "2 runs" in out and f"{r1.name}: start" in out and r0.name not in out
+    assert cli.main(["sweep", str(path), "--dry-run", "--only", "run-*,nothing"]) == 2
+    assert f"--only run-*,nothing: matches none of the runs of {path} ({a0.name}," in capsys.readouterr().err
 
     # report from the folders alone: finished row from eval.json, stopped row from metrics.jsonl
     state = {"runs": {r0.name: {"status": "stopped"}, a1.name: {"status": "failed", "exit_code": -9,
@@ -506,7 +512,7 @@ def test_runs_share_a_gpu_with_their_share_of_its_memory(tmp_path, monkeypatch):
                            executor=LocalExecutor(runs_per_gpu=2)).run()
     assert set(results.values()) == {"finished"}
     calls = [json.loads(line) for line in (tmp_path / "calls.jsonl").read_text().splitlines()]
-    assert {(c["gpu"], c["mem"]) for c in calls} == {("0", "0.45")}
+    assert {(c["gpu"], c["mem"]) for c in calls} == {("0", "0.40")}
     starts = sorted(c["t"] for c in calls)
     assert starts[1] - starts[0] < 1.4  # both at once on the one GPU
     with pytest.raises(UserError, match="--runs-per-gpu 0"):

@@ -210,3 +210,25 @@ def test_ray_cpu_sweep_real_training_matches_local(tmp_path, monkeypatch):
         rows[name] = report_rows(tmp_path / name)
     assert [r["status"] for r in rows["ray"]] == ["finished", "failed (exit 2)"]
     assert rows["ray"] == rows["local"], seconds
+
+
+def test_trials_sharing_a_gpu_get_their_share_of_its_memory(tmp_path, monkeypatch):
+    """Four trials of 0.25 GPU each fit on one GPU: each may take 0.8 / 4 of its memory (JAX's
+    default 75 % would leave the others nothing); a whole-GPU trial and a user's own setting are
+    left alone."""
+    pytest.importorskip("ray.tune")
+    from mjxmimic.ops.sweep.ray_executor import RayExecutor
+
+    def trial_env(gpus_per_trial, env):
+        executor = RayExecutor(tmp_path, gpus_per_trial=gpus_per_trial)
+        monkeypatch.setattr(executor, "_launch", lambda: None)
+        executor._thread = object()  # as if Tune were running: start only queues the job
+        with (tmp_path / "log").open("wb") as log:
+            executor.start(["train"], ["resume"], env, log, tmp_path / "run")
+        return executor._feed.queue.get_nowait()["job"]["env"]
+
+    monkeypatch.delenv("XLA_PYTHON_CLIENT_MEM_FRACTION", raising=False)
+    assert trial_env(0.25, {"A": "1"})["XLA_PYTHON_CLIENT_MEM_FRACTION"] == "0.20"
+    assert "XLA_PYTHON_CLIENT_MEM_FRACTION" not in trial_env(1, {"A": "1"})
+    assert "XLA_PYTHON_CLIENT_MEM_FRACTION" not in trial_env(None, {"A": "1"})
+    assert trial_env(0.5, {"XLA_PYTHON_CLIENT_MEM_FRACTION": "0.1"})["XLA_PYTHON_CLIENT_MEM_FRACTION"] == "0.1"

@@ -192,6 +192,24 @@ def test_max_seconds_stops_with_a_checkpoint_then_resume_finishes(tmp_path):
     assert json.loads((run_dir / "eval.json").read_text())["samples"] == 5120
 
 
+def test_a_slow_first_iteration_does_not_end_the_call_early(tmp_path, monkeypatch):
+    """The first iteration of a call carries the compilation (a minute or more when runs share a
+    GPU): run.max_seconds must not take it as the time the next iteration needs."""
+    import time
+
+    device_get, first = jax.device_get, []
+
+    def slow_first(tree):  # the loop fetches each iteration's metrics (a dict) with device_get
+        if isinstance(tree, dict) and not first:
+            first.append(time.sleep(4.0))  # as if the first train step had compiled
+        return device_get(tree)
+
+    monkeypatch.setattr(jax, "device_get", slow_first)
+    config = _standin_config(max_seconds=30.0, eval_every=10**9, checkpoint_every=10**9)
+    out = train(config, tmp_path / "run", env=StandInEnv(), progress=False, start_time=time.time() - 22.0)
+    assert out.reason == "done" and out.iterations == 10, out.reason
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_ctrl_c_or_sigterm_saves_a_checkpoint_and_exits(tmp_path, sig, code):
     """Ctrl-C, and SIGTERM (what schedulers and `timeout` send): a checkpoint, then a resume goes on."""

@@ -17,6 +17,8 @@ OUT/curves.png (needs matplotlib) are written.
 
 --dry-run: check the spec and print each run with what would happen (start, resume, skip) and
 its `mjxmimic train` arguments; nothing is written.
+--only PATTERN[,PATTERN]: run only the runs whose names match one of these shell patterns
+(`--dry-run` lists the names); the report still covers every run of the spec.
 --max-seconds S: a wall-clock budget for this call: each run gets run.max_seconds of at most what
 is left (it stops with a checkpoint, and the next call resumes it), and no run starts with less
 than a minute left.
@@ -46,6 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "none: one after another; N: the first N GPUs; 0,2: those GPU ids")
     parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
                         help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
+    parser.add_argument("--only", metavar="PATTERN[,PATTERN]", default=None,
+                        help="run only the runs whose names match one of these shell patterns (e.g. 'walk-*')")
     parser.add_argument("--runs-per-gpu", type=int, default=1, metavar="N",
                         help="local: N runs share each GPU at a time, each with its share of the GPU's memory")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
@@ -82,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     if args.max_seconds is not None and args.max_seconds <= 0:
         raise UserError("--max-seconds must be positive")
     spec = sweep.load_spec(args.spec, out=args.out)
+    chosen = sweep.select_runs(spec, args.only) if args.only else spec
 
     if args.report:
         for path in sweep.write_report(spec, echo=lambda s: _echo(f"mjxmimic sweep: {s}")):
@@ -95,16 +100,16 @@ def run(args: argparse.Namespace) -> int:
     if args.dry_run:
         from mjxmimic.ops.sweep.runner import PRUNED
 
-        plans = sweep.plan(spec)
+        plans = sweep.plan(chosen)
         counts = {a: sum(p.action == a for p in plans) for a in ("start", "resume", "skip")}
         pruned = sum(p.why == PRUNED for p in plans)
         skipped = f"{counts['skip'] - pruned} finished" + (f", {pruned} pruned" if pruned else "")
-        _echo(f"sweep {spec.name}: {len(plans)} runs in {spec.out} ({counts['start']} to start, "
+        _echo(f"sweep {chosen.name}: {len(plans)} runs in {chosen.out} ({counts['start']} to start, "
               f"{counts['resume']} to resume, {skipped}); {mode}")
         for p in sorted(plans, key=lambda p: p.run.order):
             _echo(f"  {p.run.name}: {p.action} ({p.why})")
             if p.action != "skip":
-                _echo(f"    mjxmimic train {shlex.join(sweep.train_args(spec, p, args.max_seconds))}")
+                _echo(f"    mjxmimic train {shlex.join(sweep.train_args(chosen, p, args.max_seconds))}")
         return 0
 
     from mjxmimic.ops.sweep.executors import LocalExecutor
@@ -129,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
             mode += f", {spec.ray['scheduler']} on {spec.ray['metric']} from {spec.ray['grace_period']:,} samples"
     elif spec.ray:
         _echo("note: the spec's \"ray\" block applies to --executor ray only")
-    _echo(f"sweep {spec.name}: {len(spec.runs)} runs in {spec.out}; {mode}")
+    _echo(f"sweep {spec.name}: {len(chosen.runs)} runs in {spec.out}; {mode}")
     train_command = None
     if args.wandb:
         from mjxmimic.ops.sweep.runner import default_train_command
@@ -138,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
         check_available()
         os.environ.setdefault("WANDB_RUN_GROUP", spec.name)  # W&B reads it in every run
         train_command = [*default_train_command(), "--wandb", args.wandb]
-    runner = sweep.Runner(spec, gpus=gpus, max_seconds=args.max_seconds, echo=_echo, executor=executor,
+    runner = sweep.Runner(chosen, gpus=gpus, max_seconds=args.max_seconds, echo=_echo, executor=executor,
                           train_command=train_command)
     try:
         results = runner.run()
@@ -152,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
     summary = ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     _echo(f"sweep {spec.name}: {summary}; report: {', '.join(str(p) for p in paths)}")
     if counts["stopped"] or counts["pending"] or counts["interrupted"]:
-        again = shlex.join(["mjxmimic", "sweep", str(args.spec)] + (["--out", str(args.out)] if args.out else []))
+        again = shlex.join(["mjxmimic", "sweep", str(args.spec)] + (["--out", str(args.out)] if args.out else [])
+                           + (["--only", args.only] if args.only else []))
         _echo(f"run `{again}` again to continue the unfinished runs")
     return 1 if counts["failed"] else 0

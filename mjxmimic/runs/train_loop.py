@@ -262,12 +262,12 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                 dt = time.time() - t
                 iterations += 1
                 env_steps += spi
-                state["iter_seconds"] = dt
                 if first_this_call:
                     first_this_call = False
                     bar.note(f"first iteration done in {dt:.0f} s (compilation included); "
                              f"{elapsed() - prior_elapsed:.0f} s since the start")
-                else:
+                else:  # the first iteration's time is mostly compilation: no guide to the next one's
+                    state["iter_seconds"] = dt
                     state["steady_samples"] += spi
                     state["steady_seconds"] += dt
                 record = {k: float(v) for k, v in metrics.items()}

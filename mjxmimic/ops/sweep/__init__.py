@@ -62,7 +62,7 @@ signals), `executors` (local, Slurm), `ray_executor` (Ray Tune), `state` (OUT/sw
 
 from mjxmimic.ops.sweep.report import write_report, write_tables
 from mjxmimic.ops.sweep.runner import GPU_ENV_VAR, Runner, detect_gpus, plan, train_args
-from mjxmimic.ops.sweep.spec import RunSpec, Spec, load_spec
+from mjxmimic.ops.sweep.spec import RunSpec, Spec, load_spec, select_runs
 
-__all__ = ["GPU_ENV_VAR", "RunSpec", "Runner", "Spec", "detect_gpus", "load_spec", "plan", "train_args",
-           "write_report", "write_tables"]
+__all__ = ["GPU_ENV_VAR", "RunSpec", "Runner", "Spec", "detect_gpus", "load_spec", "plan", "select_runs",
+           "train_args", "write_report", "write_tables"]

@@ -25,13 +25,24 @@ from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
 
 
+# Of a GPU, split between the runs that share it. The rest is for what XLA allocates outside its
+# pool (autotuning buffers, CUDA contexts): at 0.9, runs compiling side by side ran out of it.
+MEMORY_FRACTION = 0.8
+
+
+def gpu_share_env(env: dict[str, str], share: float) -> dict[str, str]:
+    """A run that holds `share` of a GPU may take that share of the GPU's memory (JAX would
+    otherwise take 75 % of it for the first run alone); a share set by the user stays."""
+    if not 0 < share < 1 or "XLA_PYTHON_CLIENT_MEM_FRACTION" in env:
+        return env
+    return dict(env, XLA_PYTHON_CLIENT_MEM_FRACTION=f"{MEMORY_FRACTION * share:.2f}")
+
+
 class LocalExecutor:
-    """`runs_per_gpu` runs share each GPU at a time, each limited to its share of the GPU's memory
-    (JAX would otherwise take 75 % of it for the first run alone)."""
+    """`runs_per_gpu` runs share each GPU at a time, each limited to its share of the GPU's memory."""
 
     name = "local"
     where = "this machine"
-    MEMORY_FRACTION = 0.9  # of a GPU, split between the runs that share it
 
     def __init__(self, runs_per_gpu: int = 1):
         if runs_per_gpu < 1:
@@ -45,8 +56,7 @@ class LocalExecutor:
 
     def start(self, start_cmd: list[str], resume_cmd: list[str], env: dict[str, str], log: Any,
               run_dir: Path) -> subprocess.Popen:
-        if self.runs_per_gpu > 1:
-            env = dict(env, XLA_PYTHON_CLIENT_MEM_FRACTION=f"{self.MEMORY_FRACTION / self.runs_per_gpu:.2f}")
+        env = gpu_share_env(env, 1 / self.runs_per_gpu)
         # own session: a terminal's Ctrl-C reaches only the sweep, which forwards one SIGINT
         return subprocess.Popen(start_cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 env=env, start_new_session=True)

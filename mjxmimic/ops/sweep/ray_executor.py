@@ -45,7 +45,7 @@ from ray.tune.search import Searcher
 from ray.tune.stopper import Stopper
 
 from mjxmimic.core.errors import UserError
-from mjxmimic.ops.sweep.executors import PolledHandle
+from mjxmimic.ops.sweep.executors import PolledHandle, gpu_share_env
 from mjxmimic.runs import folder
 from mjxmimic.runs.metrics_log import read as read_metrics
 
@@ -231,6 +231,7 @@ class RayExecutor:
             if self._thread is None:
                 self._launch()
         log.flush()
+        env = gpu_share_env(env, self.gpus_per_trial or 1)
         job = {"start_cmd": start_cmd, "resume_cmd": resume_cmd, "cwd": os.getcwd(),
                "env": {k: v for k, v in env.items() if os.environ.get(k) != v},
                "log": str(Path(log.name).resolve()), "run_dir": str(Path(run_dir).resolve())}

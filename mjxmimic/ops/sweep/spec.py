@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import fnmatch
 import hashlib
 import itertools
 import json
@@ -328,3 +329,13 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
 
 
 # ---- run folders ------------------------------------------------------------------------------
+
+
+def select_runs(spec: Spec, patterns: str) -> Spec:
+    """The spec with only the runs whose names match one of the comma-separated shell patterns."""
+    wanted = [p.strip() for p in patterns.split(",") if p.strip()]
+    runs = [r for r in spec.runs if any(fnmatch.fnmatchcase(r.name, p) for p in wanted)]
+    if not runs:
+        names = ", ".join(r.name for r in spec.runs)
+        raise UserError(f"--only {patterns}: matches none of the runs of {spec.path} ({names})")
+    return dataclasses.replace(spec, runs=runs)
