@@ -273,7 +273,8 @@ FAKE_TRAIN = textwrap.dedent("""
     signal.signal(signal.SIGINT, on_int)
     with open(os.environ["FAKE_LOG"], "a") as f:
         f.write(json.dumps({"run": out.name, "gpu": os.environ.get("CUDA_VISIBLE_DEVICES"), "t": time.time(),
-                            "mem": os.environ.get("XLA_PYTHON_CLIENT_MEM_FRACTION"), "args": args}) + "\\n")
+                            "mem": os.environ.get("XLA_PYTHON_CLIENT_MEM_FRACTION"), "args": args,
+                            "stop_with_parent": os.environ.get("MJXMIMIC_STOP_WITH_PARENT")}) + "\\n")
     if "fail" in (opt("--clip") or ""):
         print("step 1", flush=True)
         print("boom: made to fail", flush=True)
@@ -512,7 +513,7 @@ def test_runs_share_a_gpu_with_their_share_of_its_memory(tmp_path, monkeypatch):
                            executor=LocalExecutor(runs_per_gpu=2)).run()
     assert set(results.values()) == {"finished"}
     calls = [json.loads(line) for line in (tmp_path / "calls.jsonl").read_text().splitlines()]
-    assert {(c["gpu"], c["mem"]) for c in calls} == {("0", "0.40")}
+    assert {(c["gpu"], c["mem"], c["stop_with_parent"]) for c in calls} == {("0", "0.40", "1")}
     starts = sorted(c["t"] for c in calls)
     assert starts[1] - starts[0] < 1.4  # both at once on the one GPU
     with pytest.raises(UserError, match="--runs-per-gpu 0"):

@@ -210,6 +210,33 @@ def test_a_slow_first_iteration_does_not_end_the_call_early(tmp_path, monkeypatc
     assert out.reason == "done" and out.iterations == 10, out.reason
 
 
+@pytest.mark.parametrize("watch", [True, False])
+def test_a_sweep_training_stops_with_a_checkpoint_when_its_parent_dies(tmp_path, monkeypatch, watch):
+    """A sweep's training (MJXMIMIC_STOP_WITH_PARENT=1) whose parent dies, so that it is handed to
+    another parent, checkpoints and stops as if terminated; a training started by hand goes on."""
+    from mjxmimic.runs import folder
+
+    if watch:
+        monkeypatch.setenv(folder.STOP_WITH_PARENT, "1")
+    else:
+        monkeypatch.delenv(folder.STOP_WITH_PARENT, raising=False)
+    parent = os.getppid()
+    iterations = []
+
+    def orphaned_after_three(iteration, metrics):
+        iterations.append(iteration)
+        if iteration == 3:
+            monkeypatch.setattr(os, "getppid", lambda: 1)
+
+    out = train(_standin_config(), tmp_path / "run", env=StandInEnv(), progress=False, on_iteration=orphaned_after_three)
+    assert parent != 1
+    if watch:
+        assert (out.reason, out.exit_code, out.env_steps) == ("interrupted", 143, 3 * 512)
+        assert checkpoint.latest_checkpoint(tmp_path / "run") == 3 * 512
+    else:
+        assert out.reason == "done" and iterations == list(range(1, 11))
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_ctrl_c_or_sigterm_saves_a_checkpoint_and_exits(tmp_path, sig, code):
     """Ctrl-C, and SIGTERM (what schedulers and `timeout` send): a checkpoint, then a resume goes on."""

@@ -95,6 +95,12 @@ def require(run_dir: Path) -> Path:
     return run_dir
 
 
+# Set by sweeps for the trainings they start: a training whose parent (the sweep, a Ray trial, a
+# Slurm job) has died checkpoints and stops as if terminated, rather than train on unwatched while
+# holding its run's lock (the next sweep call would find the run taken).
+STOP_WITH_PARENT = "MJXMIMIC_STOP_WITH_PARENT"
+
+
 @contextlib.contextmanager
 def writer_lock(run_dir: Path) -> Iterator[None]:
     """Hold RUN/.lock while this process writes the run: a second writer gets a one-line error

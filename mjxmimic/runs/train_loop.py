@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import math
+import os
 import shutil
 import signal
 import sys
@@ -51,7 +52,7 @@ class Outcome:
 class _StopFlag:
     """The first Ctrl-C (SIGINT) or SIGTERM (what schedulers and `timeout` send) asks the loop to
     stop after the current iteration, then checkpoint and exit 130 (143 for SIGTERM); a second
-    one interrupts at once."""
+    one interrupts at once. With STOP_WITH_PARENT=1, so does the death of the parent process."""
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -59,6 +60,12 @@ class _StopFlag:
         self.requested = False
         self.signal = None
         self._previous = {}
+        self._parent = os.getppid() if os.environ.get(folder.STOP_WITH_PARENT) == "1" else None
+
+    def should_stop(self) -> bool:
+        if not self.requested and self._parent is not None and os.getppid() != self._parent:
+            self.requested, self.signal = True, signal.SIGTERM
+        return self.requested
 
     def __enter__(self):
         for sig in self.SIGNALS:
@@ -250,7 +257,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         train_step = step_compiled.result()  # compiled once: it cannot recompile
         with stop, bar:
             while env_steps < run_cfg.total_samples:
-                if stop.requested:
+                if stop.should_stop():
                     reason = "interrupted"
                     break
                 if run_cfg.max_seconds > 0 and (time.time() - t_start) + state["iter_seconds"] >= run_cfg.max_seconds:

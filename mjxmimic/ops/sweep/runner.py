@@ -322,6 +322,7 @@ class Runner:
         resume_cmd = self.train_command + train_args(spec, Plan(run, "resume", "requeued"), budget)
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
+        env[folder.STOP_WITH_PARENT] = "1"
         package_root = str(Path(__file__).resolve().parents[3])  # the folder that holds mjxmimic/
         env["PYTHONPATH"] = os.pathsep.join([package_root] + [x for x in env.get("PYTHONPATH", "").split(os.pathsep) if x])
         where = "the default device" if self.executor.name == "local" else f"{self.executor.name} ({self.executor.where})"
