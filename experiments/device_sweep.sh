@@ -4,9 +4,10 @@
 # sharing the GPU (GPUS_PER_TRIAL each, so 0.25 runs four at once), each call bounded by SECONDS.
 #   bash experiments/device_sweep.sh SECONDS GPUS_PER_TRIAL "SPEC [sweep args]" ...
 # The run folders stay on the machine between calls (a later call resumes them); what comes back
-# in $OUT is each sweep's log and runs.tgz.* with every run's config, metrics, logs and report.
-# FINAL=1: also each run's evaluation of its latest and best checkpoints (RUN/eval_*.json, by
-# `mjxmimic eval`) and its latest checkpoint exported (RUN/policy.npz), for the CPU player.
+# in $OUT is each sweep's log and runs.tgz.* with every run's config, metrics, logs, report and
+# latest checkpoint exported (RUN/policy.npz, for the CPU player and videos: a machine can be
+# given back before the next call). FINAL=1: also each run's evaluation of its latest and best
+# checkpoints (RUN/eval_*.json, by `mjxmimic eval`).
 set -u
 seconds=$1 share=$2; shift 2
 export PYTHONUNBUFFERED=1
@@ -40,13 +41,13 @@ print(f"{sys.argv[1]}: {rows[-1]['step']:,} samples, {rows[-1]['wall']:.0f} s; l
       + ", ".join(f"{k[5:]} {v:.3f}" for k, v in last.items() if k.startswith("eval/") and isinstance(v, float)))
 PY
 done
-if [ "${FINAL:-0}" = 1 ]; then
-  for run in $runs; do
+for run in $runs; do
+  if [ "${FINAL:-0}" = 1 ]; then
     for which in latest best; do
       python3 -m mjxmimic.cli eval "$run" --checkpoint "$which" --json > "$run/eval_$which.json" 2> "$run/eval_$which.err" \
         || tail -n 3 "$run/eval_$which.err"
     done
-    python3 -m mjxmimic.cli export "$run" --checkpoint latest > /dev/null 2>&1 || echo "export $run failed"
-  done
-fi
+  fi
+  [ -d "$run/checkpoints" ] && { python3 -m mjxmimic.cli export "$run" --checkpoint latest > /dev/null 2>&1 || echo "export $run failed"; }
+done
 tar czf - --exclude=checkpoints --exclude=best --exclude=ray runs/sweeps | split -b 15M - "$OUT/runs.tgz."
