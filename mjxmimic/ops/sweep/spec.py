@@ -328,9 +328,6 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
                 runs=fixed, raw=raw, ray=_ray_block(raw.get("ray", {}), fixed))
 
 
-# ---- run folders ------------------------------------------------------------------------------
-
-
 def select_runs(spec: Spec, patterns: str) -> Spec:
     """The spec with only the runs whose names match one of the comma-separated shell patterns."""
     wanted = [p.strip() for p in patterns.split(",") if p.strip()]
