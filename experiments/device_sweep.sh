@@ -8,7 +8,7 @@
 # latest checkpoint exported (RUN/policy.npz, for the CPU player and videos: a machine can be
 # given back before the next call). FINAL=1: also each run's evaluation of its latest and best
 # checkpoints (RUN/eval_*.json, by `mjxmimic eval`).
-set -u
+set -uf  # -f: the sweep arguments hold shell patterns (--only), passed on unexpanded
 seconds=$1 share=$2; shift 2
 export PYTHONUNBUFFERED=1
 ray_cli() { python3 -c "import sys; from ray.scripts.scripts import main; sys.exit(main())" "$@"; }
@@ -30,6 +30,7 @@ done
 [ ${#pids[@]} -gt 0 ] && wait "${pids[@]}"
 ray_cli stop > /dev/null 2>&1
 
+set +f
 runs=$(for f in runs/sweeps/*/*/config.json; do dirname "$f"; done)
 for run in $runs; do  # samples, seconds and the newest evaluation of every run
   python3 - "$run" <<'PY'
