@@ -30,6 +30,7 @@ RANDOMISED = {"env.friction_range": "0.3,0.6", "env.mass_range": "0.5,2.0"}
     ("env.friction_range", "1,inf", "env.friction_range", "finite"),
     ("env.mass_range", "1.1", "env.mass_range", "two factors"),
     ("env.mass_range", "heavy", "env.mass_range", "not a valid tuple"),
+    ("env.reset_noise_rad", -0.1, "env.reset_noise_rad", "must be >= 0"),
 ])
 def test_new_keys_are_checked_in_one_line(key, value, named, message):
     with pytest.raises(UserError, match=f"'{named}'.*{message}"):
@@ -223,9 +224,11 @@ def test_training_perturbations_stay_out_of_evaluation(tmp_path):
     from standin_env import StandInEnv
 
     config = make_config("cpu", {**RANDOMISED, "env.events": "push", "env.push_force_n": 300.0,
-                                 "run.total_samples": 512, "run.eval_every": 512, "run.eval_at_start": "false"})
+                                 "env.reset_noise_rad": 0.2, "run.total_samples": 512, "run.eval_every": 512,
+                                 "run.eval_at_start": "false"})
     graded = evaluation_config(config)
     assert (graded.env.events, graded.env.friction_range, graded.env.mass_range) == ("", (1.0, 1.0), (1.0, 1.0))
+    assert graded.env.reset_noise_rad == 0.0
     assert graded.ppo == config.ppo and graded.env.control_hz == config.env.control_hz
     assert evaluation_config(graded) == graded
     built = []
@@ -236,3 +239,31 @@ def test_training_perturbations_stay_out_of_evaluation(tmp_path):
 
     train(config, tmp_path / "run", env_factory=factory, progress=False)
     assert built == [config, graded]  # the training env, then the evaluator's
+
+
+def test_reset_noise_turns_every_joint_within_its_bound_alike_on_numpy_and_jax(character):
+    """env.reset_noise_rad: the RSI pose with each hinge moved by up to the bound and each ball
+    joint turned by a rotation vector of components up to it; the root and the velocities are
+    the reference's; the same pose from the same event seed on numpy (the CPU env) and JAX (MJX),
+    another from another seed."""
+    from mjxmimic.core import quat
+    from mjxmimic.envs import step
+    from mjxmimic.motion.clip import load_clip_source
+
+    clip, noise, t = load_clip_source("slow_walk", character), 0.3, np.float32(0.4)
+    noisy = make_config("cpu", {"env.reset_noise_rad": noise})
+    spec_np = step.build(noisy, character, [clip], np)[1]
+    spec_jax = step.build(noisy, character, [clip], jnp)[1]
+    plain = step.build(make_config("cpu"), character, [clip], np)[1]
+    ref_q, ref_v = step.start_state(plain, 0, t, np.float32(0.37), np)
+    q, v = step.start_state(spec_np, 0, t, np.float32(0.37), np)
+    q_jax = np.asarray(step.start_state(spec_jax, 0, jnp.float32(t), jnp.float32(0.37), jnp)[0])
+    np.testing.assert_allclose(q_jax, q, atol=1e-6)
+    np.testing.assert_array_equal(v, ref_v)
+    np.testing.assert_array_equal(q[:7], ref_q[:7])
+    layout = spec_np.layout
+    hinge = np.abs(q[layout.q_scalar[3:]] - ref_q[layout.q_scalar[3:]])
+    assert hinge.max() <= noise + 1e-6 and hinge.max() > 0.5 * noise
+    turn = np.array([quat.angle_between(a, b, np) for a, b in zip(q[layout.q_quat[1:]], ref_q[layout.q_quat[1:]])])
+    assert turn.max() <= np.sqrt(3) * noise + 1e-5 and turn.min() > 0.01
+    assert np.abs(step.start_state(spec_np, 0, t, np.float32(0.61), np)[0] - q).max() > 0.05

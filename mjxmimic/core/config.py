@@ -62,6 +62,10 @@ class EnvConfig:
     # hi): one for every geom's sliding friction, one per body for its mass and inertia.
     friction_range: tuple[float, ...] = (1.0, 1.0)
     mass_range: tuple[float, ...] = (1.0, 1.0)
+    # > 0: each episode starts from its RSI pose with every actuated joint turned by up to this
+    # many radians (uniform per hinge angle and per component of a ball joint's rotation vector),
+    # so that the policy meets states off its clip (a getup: the poses a push leaves); training only
+    reset_noise_rad: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -321,8 +325,9 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
 def evaluation_config(config: Config) -> Config:
     """The conditions that evaluation, push tests and playback measure in (EVALUATION.md): the
     run's settings without what only perturbs training (episode events such as pushes, domain
-    randomisation), so that a policy trained with them is graded as any other."""
-    return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0)})
+    randomisation, reset noise), so that a policy trained with them is graded as any other."""
+    return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
+                                    "env.reset_noise_rad": 0.0})
 
 
 def _scale_range_ok(factors: tuple[float, ...]) -> bool:
@@ -349,6 +354,7 @@ def validate(config: Config) -> None:
         (env.push_force_max_n == 0 or env.push_force_max_n >= env.push_force_n, "env.push_force_max_n",
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
+        (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),

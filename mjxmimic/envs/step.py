@@ -245,9 +245,27 @@ def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tupl
     """RSI's (qpos, qvel): the reference at time t, on a terrain placed on the start pad of the
     lane that the event seed picks (mjxmimic.core.terrain.start_pose)."""
     qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
+    if spec.config.env.reset_noise_rad > 0:
+        qpos = perturbed_pose(spec, qpos, event_seed, xp)
     if spec.terrain is not None:
         qpos, qvel = terrain_lib.start_pose(spec.terrain, qpos, qvel, event_seed, xp)
     return qpos, qvel
+
+
+RESET_NOISE_DRAWS = 1 << 20  # where the reset noise's draws start in the event seed's stream (randomise.uniform)
+
+
+def perturbed_pose(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
+    """`qpos` with every actuated joint turned by uniform noise of up to env.reset_noise_rad, drawn
+    from the event seed (so the CPU env starts where MJX does): a residual action of uniform
+    entries in [-1, 1] at that scale, applied to the pose as the PD targets apply one."""
+    layout = spec.layout
+    size = layout.action_ball.size + layout.action_hinge.size
+    noise = 2.0 * randomise.uniform(event_seed, size, xp, first=RESET_NOISE_DRAWS) - 1.0
+    turned = action_to_targets(layout, noise, qpos, "residual", spec.config.env.reset_noise_rad, xp)
+    scalars = xp.concatenate([qpos[layout.q_scalar[:3]], turned.hinge.astype(qpos.dtype)])
+    quats = xp.concatenate([qpos[layout.q_quat[:1]], turned.ball.astype(qpos.dtype)])
+    return xp.concatenate([scalars, xp.reshape(quats, (-1,))])[layout.q_perm]
 
 
 def initial_goal(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
