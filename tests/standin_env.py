@@ -44,6 +44,10 @@ class StandInEnv:
     def clip_durations(self):
         return jnp.asarray([self.clip_duration])
 
+    @property
+    def eval_start_limits(self):  # evaluation start times are drawn in [0, this) per clip
+        return self.clip_durations
+
     def eval_horizon(self, t, clip=0):
         if self.looping:
             return 600 if isinstance(t, (int, float)) else jnp.full(jnp.shape(t), 600, jnp.int32)

@@ -7,7 +7,7 @@ Group order everywhere: "quaternion groups" are the root then each ball joint (c
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -90,3 +90,8 @@ def make_layout(character: Character) -> Layout:
         end_effectors=np.array(character.end_effectors),
         body_mass=model.body_mass.astype(f32),
     )
+
+
+def join_qpos(layout: Layout, scalars: Any, quats: Any, xp: Any = np) -> Any:
+    """qpos from its scalar groups (S,) and quaternion groups (K, 4)."""
+    return xp.concatenate([scalars, xp.reshape(quats, (-1,))])[layout.q_perm]

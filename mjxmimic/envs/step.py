@@ -20,7 +20,7 @@ import numpy as np
 from mjxmimic.core.character import Character, default_fall_contact
 from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.layout import Layout, make_layout
+from mjxmimic.core.layout import Layout, join_qpos, make_layout
 from mjxmimic.core import terrain as terrain_lib
 from mjxmimic.core.kinematics import ROOT_BODY, root_yaw
 from mjxmimic.core.scene import Ball, Scene, build_scene, fall_mask, sensor_geoms
@@ -260,12 +260,11 @@ def perturbed_pose(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
     from the event seed (so the CPU env starts where MJX does): a residual action of uniform
     entries in [-1, 1] at that scale, applied to the pose as the PD targets apply one."""
     layout = spec.layout
-    size = layout.action_ball.size + layout.action_hinge.size
-    noise = 2.0 * randomise.uniform(event_seed, size, xp, first=RESET_NOISE_DRAWS) - 1.0
+    noise = 2.0 * randomise.uniform(event_seed, spec.action_size, xp, first=RESET_NOISE_DRAWS) - 1.0
     turned = action_to_targets(layout, noise, qpos, "residual", spec.config.env.reset_noise_rad, xp)
     scalars = xp.concatenate([qpos[layout.q_scalar[:3]], turned.hinge.astype(qpos.dtype)])
     quats = xp.concatenate([qpos[layout.q_quat[:1]], turned.ball.astype(qpos.dtype)])
-    return xp.concatenate([scalars, xp.reshape(quats, (-1,))])[layout.q_perm]
+    return join_qpos(layout, scalars, quats, xp)
 
 
 def initial_goal(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:

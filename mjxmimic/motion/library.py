@@ -21,7 +21,7 @@ import numpy as np
 from mjxmimic.core import quat
 from mjxmimic.core.character import Character
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.layout import Layout, make_layout
+from mjxmimic.core.layout import Layout, join_qpos, make_layout
 
 # Grid cells per frame at most, so a clip with a few very short frames does not get a huge table;
 # times inside frames shorter than the grid step are then looked up to within one step (see
@@ -257,7 +257,7 @@ def sample(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> tuple[Any, Any]:
     lay = lib.layout
     scalars = (1.0 - alpha) * q0[lay.q_scalar] + alpha * q1[lay.q_scalar]
     quats = quat.slerp(q0[lay.q_quat], q1[lay.q_quat], xp.full((len(lay.q_quat), 1), alpha), xp)
-    qpos = xp.concatenate([scalars, xp.reshape(quats, (-1,))])[lay.q_perm]
+    qpos = join_qpos(lay, scalars, quats, xp)
     qvel = (1.0 - alpha) * lib.qvel[i0] + alpha * lib.qvel[i0 + 1]
 
     # Move cycle k by the k-fold cycle transform: turn about the first frame's root, then shift.

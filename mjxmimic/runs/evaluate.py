@@ -35,7 +35,7 @@ def start_times(key: jax.Array, num_episodes: int, clip_duration: float) -> jax.
 def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: int = 0) -> dict:
     """Per-episode sums (traceable; jit it). policy_fn(obs, key) -> action, batched over episodes."""
     _, k_reset, k_policy = jax.random.split(key, 3)
-    t0 = start_times(key, num_episodes, getattr(env, "eval_start_limits", env.clip_durations)[clip])
+    t0 = start_times(key, num_episodes, env.eval_start_limits[clip])
     state = jax.vmap(lambda k, t: env.reset_at(k, t, clip))(jax.random.split(k_reset, num_episodes), t0)
     horizon = jax.vmap(lambda t: env.eval_horizon(t, clip))(t0)
     transition = jax.vmap(lambda s, a: env.transition(s, a, evaluation=True))
