@@ -210,10 +210,10 @@ def test_warp_batches_the_randomised_fields_as_jax_does(character):
     assert out["warp"][2, 0] < out["warp"][0, 0] - 0.3  # heavier: less speed from the push
 
 
-def test_training_perturbations_stay_out_of_evaluation(tmp_path):
+def test_training_perturbations_stay_out_of_evaluation(tmp_path, monkeypatch):
     """NR, push tests and playback grade a push-trained, randomised policy as any other: the
     evaluation config drops the events and the ranges, and training's evaluator gets an env
-    built from it."""
+    built from it, also when the caller built the training env (as `mjxmimic train` does)."""
     import sys
     from pathlib import Path
 
@@ -239,6 +239,10 @@ def test_training_perturbations_stay_out_of_evaluation(tmp_path):
 
     train(config, tmp_path / "run", env_factory=factory, progress=False)
     assert built == [config, graded]  # the training env, then the evaluator's
+    built.clear()
+    monkeypatch.setattr("mjxmimic.envs.mjx_env.make_env", factory)
+    train(config, tmp_path / "given", env=StandInEnv(), progress=False)
+    assert built == [graded]
 
 
 def test_reset_noise_turns_every_joint_within_its_bound_alike_on_numpy_and_jax(character):

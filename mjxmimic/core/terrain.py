@@ -28,7 +28,8 @@ from mjxmimic.core.config import TERRAINS
 from mjxmimic.core.errors import UserError
 
 START_PAD_M = 2.0  # flat ground before x = 0, where episodes start
-END_PAD_M = 3.0  # flat ground after the course's end
+END_PAD_M = 40.0  # flat ground after the course's end, long enough that a character that crossed it
+# keeps going on flat ground for the rest of its episode instead of walking off into the pit
 
 
 class Terrain(NamedTuple):

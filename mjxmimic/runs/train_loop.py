@@ -132,14 +132,14 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     from mjxmimic.runs.metrics_log import MetricsLog
     from mjxmimic.learn.ppo import export_params, make_trainer
 
+    if env_factory is None:
+        from mjxmimic.envs.mjx_env import make_env as env_factory
     if env is None:
-        if env_factory is None:
-            from mjxmimic.envs.mjx_env import make_env as env_factory
         env = env_factory(config)
     trainer = make_trainer(env, config)
     run_cfg = config.run
     graded = config_lib.evaluation_config(config)  # training-only perturbations off (pushes, randomisation)
-    eval_env = env_factory(graded) if env_factory is not None and graded != config else env
+    eval_env = env_factory(graded) if graded != config else env
     evaluator = Evaluator(eval_env, config, trainer.make_policy)
     # The train step compiles in a thread while the env states are drawn; the evaluator compiles
     # in another while training starts (compilation is most of a run's first minute).
