@@ -274,6 +274,7 @@ FAKE_TRAIN = textwrap.dedent("""
     with open(os.environ["FAKE_LOG"], "a") as f:
         f.write(json.dumps({"run": out.name, "gpu": os.environ.get("CUDA_VISIBLE_DEVICES"), "t": time.time(),
                             "mem": os.environ.get("XLA_PYTHON_CLIENT_MEM_FRACTION"), "args": args,
+                            "deadline": os.environ.get("MJXMIMIC_SWEEP_DEADLINE"),
                             "stop_with_parent": os.environ.get("MJXMIMIC_STOP_WITH_PARENT")}) + "\\n")
     if "fail" in (opt("--clip") or ""):
         print("step 1", flush=True)
@@ -509,11 +510,14 @@ def test_runs_share_a_gpu_with_their_share_of_its_memory(tmp_path, monkeypatch):
     monkeypatch.delenv("XLA_PYTHON_CLIENT_MEM_FRACTION", raising=False)
     spec = sweep.load_spec(write_spec(tmp_path / "s.json", preset="cpu", clips=["squat"], seeds=[0, 1],
                                       set={"run.total_samples": 256}, out=str(tmp_path / "out")))
+    t0 = time.time()
     results = sweep.Runner(spec, gpus=["0"], train_command=[sys.executable, str(fake)], echo=lambda s: None,
-                           executor=LocalExecutor(runs_per_gpu=2)).run()
+                           executor=LocalExecutor(runs_per_gpu=2), max_seconds=600).run()
     assert set(results.values()) == {"finished"}
     calls = [json.loads(line) for line in (tmp_path / "calls.jsonl").read_text().splitlines()]
     assert {(c["gpu"], c["mem"], c["stop_with_parent"]) for c in calls} == {("0", "0.40", "1")}
+    # one deadline for the whole sweep, however late a run starts
+    assert len({c["deadline"] for c in calls}) == 1 and abs(float(calls[0]["deadline"]) - t0 - 600) < 5
     starts = sorted(c["t"] for c in calls)
     assert starts[1] - starts[0] < 1.4  # both at once on the one GPU
     with pytest.raises(UserError, match="--runs-per-gpu 0"):

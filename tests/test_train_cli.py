@@ -192,6 +192,23 @@ def test_max_seconds_stops_with_a_checkpoint_then_resume_finishes(tmp_path):
     assert json.loads((run_dir / "eval.json").read_text())["samples"] == 5120
 
 
+def test_a_sweep_deadline_stops_a_training_that_started_late(tmp_path, monkeypatch):
+    """A sweep's budget is one wall-clock deadline: a run that a queue started late stops at it
+    with a checkpoint, whatever its own run.max_seconds; a malformed deadline is one line."""
+    import time
+
+    from mjxmimic.runs import folder
+
+    monkeypatch.setenv(folder.SWEEP_DEADLINE, f"{time.time() + 0.01:.3f}")
+    out = train(_standin_config(max_seconds=1000.0), tmp_path / "run", env=StandInEnv(), progress=False)
+    assert out.reason == "max_seconds" and out.env_steps < 5120
+    assert checkpoint.latest_checkpoint(tmp_path / "run") == out.env_steps
+    monkeypatch.setenv(folder.SWEEP_DEADLINE, "soon")
+    with pytest.raises(UserError, match="MJXMIMIC_SWEEP_DEADLINE='soon'"):
+        train(_standin_config(), tmp_path / "bad", env=StandInEnv(), progress=False)
+    assert not (tmp_path / "bad").exists()
+
+
 def test_a_slow_first_iteration_does_not_end_the_call_early(tmp_path, monkeypatch):
     """The first iteration of a call carries the compilation (a minute or more when runs share a
     GPU): run.max_seconds must not take it as the time the next iteration needs."""

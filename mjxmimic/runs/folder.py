@@ -99,6 +99,9 @@ def require(run_dir: Path) -> Path:
 # Slurm job) has died checkpoints and stops as if terminated, rather than train on unwatched while
 # holding its run's lock (the next sweep call would find the run taken).
 STOP_WITH_PARENT = "MJXMIMIC_STOP_WITH_PARENT"
+# Set by a sweep with a wall-clock budget (--max-seconds): when (Unix time, s) its trainings stop
+# with a checkpoint, so that one that a Ray or Slurm queue started late still ends within the budget.
+SWEEP_DEADLINE = "MJXMIMIC_SWEEP_DEADLINE"
 
 
 @contextlib.contextmanager

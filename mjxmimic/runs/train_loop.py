@@ -113,16 +113,17 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     """Train (or continue) the run in `run_dir`, holding its writer lock. `env`/`env_factory`
     default to mjxmimic.envs.mjx_env.make_env (tests pass a stand-in). `start_time`: the command's
     start (time-to-skill counts from it)."""
+    deadline = _sweep_deadline()  # checked before the run folder is touched
     with folder.writer_lock(run_dir):
         if not resume and folder.holds_run(run_dir):
             raise UserError(f"{run_dir}: already holds a run (continue it with --resume)")
         return _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
-                      progress=progress, on_iteration=on_iteration)
+                      progress=progress, on_iteration=on_iteration, deadline=deadline)
 
 
 def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_factory: Callable | None,
            start_time: float | None, progress: bool | str,
-           on_iteration: Callable[[int, dict], None] | None) -> Outcome:
+           on_iteration: Callable[[int, dict], None] | None, deadline: float | None) -> Outcome:
     t_start = time.time() if start_time is None else start_time
     import jax
 
@@ -260,7 +261,9 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                 if stop.should_stop():
                     reason = "interrupted"
                     break
-                if run_cfg.max_seconds > 0 and (time.time() - t_start) + state["iter_seconds"] >= run_cfg.max_seconds:
+                now, next_iter = time.time(), state["iter_seconds"]
+                if ((run_cfg.max_seconds > 0 and now - t_start + next_iter >= run_cfg.max_seconds)
+                        or (deadline is not None and now + next_iter >= deadline)):
                     reason = "max_seconds"
                     break
                 t = time.time()
@@ -334,6 +337,16 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
     return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps,
                    iterations=iterations, summary=out, final_eval=final)
+
+
+def _sweep_deadline() -> float | None:
+    value = os.environ.get(folder.SWEEP_DEADLINE)
+    if not value:
+        return None
+    try:
+        return float(value)
+    except ValueError:
+        raise UserError(f"{folder.SWEEP_DEADLINE}={value!r}: not a time in seconds") from None
 
 
 def _in_background(fn: Callable, *args: Any) -> Future:

@@ -38,7 +38,9 @@ Folder OUT/ holds:
 Each run is one subprocess `python -m mjxmimic.cli train ...`, so a crash or an out-of-memory
 kill takes only that run down (recorded as failed with its exit code and the last lines of its
 log); a training whose sweep (or Ray trial) dies outright checkpoints and stops
-(`folder.STOP_WITH_PARENT`), so that the next call can resume it. With two or more GPUs visible (CUDA_VISIBLE_DEVICES, else `nvidia-smi -L`; override with
+(`folder.STOP_WITH_PARENT`), so that the next call can resume it; with --max-seconds every
+training stops at the sweep's deadline (`folder.SWEEP_DEADLINE`), also one that a Ray or Slurm
+queue started late. With two or more GPUs visible (CUDA_VISIBLE_DEVICES, else `nvidia-smi -L`; override with
 --gpus or MJXMIMIC_SWEEP_GPUS) runs go one per GPU at the same time, each subprocess seeing one
 GPU; otherwise one after another. Running the same spec again skips finished runs (eval.json
 with run.total_samples reached, or the target NR reached), resumes interrupted or time-stopped

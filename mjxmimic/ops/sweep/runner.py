@@ -323,6 +323,8 @@ class Runner:
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
         env[folder.STOP_WITH_PARENT] = "1"
+        if self._deadline is not None:
+            env[folder.SWEEP_DEADLINE] = f"{self._deadline:.1f}"
         package_root = str(Path(__file__).resolve().parents[3])  # the folder that holds mjxmimic/
         env["PYTHONPATH"] = os.pathsep.join([package_root] + [x for x in env.get("PYTHONPATH", "").split(os.pathsep) if x])
         where = "the default device" if self.executor.name == "local" else f"{self.executor.name} ({self.executor.where})"
