@@ -1,7 +1,7 @@
 """Where a training run's first seconds go: each start-up phase timed on its own, in order.
 
-The training loop overlaps some of these (the train step compiles in a thread while the env
-states are drawn, the evaluator while training starts); `mjxmimic train` prints the overlapped
+The training loop overlaps some of these (the train step, the env reset and the evaluator
+compile side by side in threads, before anything runs); `mjxmimic train` prints the overlapped
 total ("first iteration done ... since the start"). This script runs them one after another so
 that each has its own figure, and also times the kinematics alone: the array-code forward
 kinematics that the env uses against MJX's general kinematics (mj_kinematics, mj_comPos,
@@ -75,10 +75,10 @@ def main() -> int:
     timed(phases, "compile kinematics (own)", lower, jax.vmap(env.physics.kinematics), q, v)
     timed(phases, "compile kinematics (MJX)", lower, jax.vmap(mjx_kinematics(env)), q, v)
     step = timed(phases, "compile train step", trainer.compile_train_step)
-    ts = timed(phases, "init (reset compile + draw)", trainer.init, config.run.seed)
+    timed(phases, "compile reset", trainer.compile_reset)
     evaluator = Evaluator(env, config, trainer.make_policy)
-    params = export_params(ts)
-    timed(phases, "compile evaluator", evaluator.compile, params)
+    timed(phases, "compile evaluator", evaluator.compile, export_params(trainer.abstract_state))
+    ts = timed(phases, "init (draw starts)", trainer.init, config.run.seed)
     ts, _ = timed(phases, "first iteration (compiled)", step, ts)
     ts, _ = timed(phases, "second iteration", step, ts)
     timed(phases, "one evaluation (compiled)", evaluator, export_params(ts))

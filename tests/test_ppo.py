@@ -127,7 +127,7 @@ def test_matmul_precision_reaches_the_network_products(precision):
     """Each product of the policy and value networks (rollout, loss, gradients) carries the
     chosen dot algorithm; "default" leaves every product as XLA would have it."""
     trainer = make_trainer(StandInEnv(), make_config("cpu", {"ppo.matmul_precision": precision}))
-    jaxpr = str(jax.make_jaxpr(trainer._train_step)(trainer._abstract_state))
+    jaxpr = str(jax.make_jaxpr(trainer._train_step)(trainer.abstract_state))
     tagged = jaxpr.count("precision=BF16_BF16_F32")
     if precision == "default":
         assert tagged == 0
@@ -174,6 +174,7 @@ def test_two_devices_shard_the_batch_and_all_reduce():
             assert "ppo.num_envs" in str(err) and "2 local devices" in str(err), err
         config = make_config("cpu")
         trainer = make_trainer(StandInEnv(), config)
+        trainer.compile_reset()  # as the training loop does: the sharded reset, compiled ahead
         ts = trainer.init(0)
         leaf = ts.env_state.obs
         shards = leaf.addressable_shards

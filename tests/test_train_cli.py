@@ -227,6 +227,32 @@ def test_a_slow_first_iteration_does_not_end_the_call_early(tmp_path, monkeypatc
     assert out.reason == "done" and out.iterations == 10, out.reason
 
 
+def test_nothing_runs_until_every_compilation_has_finished(tmp_path, monkeypatch):
+    """Under MuJoCo Warp a running program captures CUDA graphs, and a capture fails when another
+    thread loads kernel modules or autotunes meanwhile (compiling does both): the first program
+    that runs (the env reset) waits for all three compilations."""
+    from mjxmimic.learn.ppo import Trainer
+    from mjxmimic.runs.evaluate import Evaluator
+
+    events = []
+
+    def recorded(name, method):
+        def wrapper(*args, **kwargs):
+            events.append(f"{name} start")
+            out = method(*args, **kwargs)
+            events.append(f"{name} end")
+            return out
+        return wrapper
+
+    monkeypatch.setattr(Trainer, "compile_train_step", recorded("step compile", Trainer.compile_train_step))
+    monkeypatch.setattr(Trainer, "compile_reset", recorded("reset compile", Trainer.compile_reset))
+    monkeypatch.setattr(Evaluator, "compile", recorded("eval compile", Evaluator.compile))
+    monkeypatch.setattr(Trainer, "reset_envs", recorded("reset", Trainer.reset_envs))
+    train(_standin_config(eval_at_start="true"), tmp_path / "run", env=StandInEnv(), progress=False)
+    before_reset = set(events[:events.index("reset start")])
+    assert {"step compile end", "reset compile end", "eval compile end"} <= before_reset, events
+
+
 @pytest.mark.parametrize("watch", [True, False])
 def test_a_sweep_training_stops_with_a_checkpoint_when_its_parent_dies(tmp_path, monkeypatch, watch):
     """A sweep's training (MJXMIMIC_STOP_WITH_PARENT=1) whose parent dies, so that it is handed to

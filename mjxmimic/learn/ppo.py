@@ -211,10 +211,11 @@ class Trainer:
     num_devices: int
     samples_per_iteration: int
     train_step: Callable[[TrainState], tuple[TrainState, dict]] = dataclasses.field(repr=False, default=None)
+    # a TrainState's shapes and shardings: what compiles the step and the evaluator, running nothing
+    abstract_state: Any = dataclasses.field(repr=False, default=None)
     _batched_env: _BatchedEnv = dataclasses.field(repr=False, default=None)
     _state_sharding: Any = dataclasses.field(repr=False, default=None)
     _reset: Callable = dataclasses.field(repr=False, default=None)
-    _abstract_state: Any = dataclasses.field(repr=False, default=None)
 
     # ---- shardings -------------------------------------------------------------------------
     @property
@@ -273,8 +274,13 @@ class Trainer:
 
     def compile_train_step(self) -> Callable[[TrainState], tuple[TrainState, dict]]:
         """`train_step` compiled ahead of time from the state's shapes alone, so that it can
-        compile in a thread while the env states are drawn and the evaluator compiles."""
-        return self.train_step.lower(self._abstract_state).compile()
+        compile in a thread while the reset and the evaluator compile."""
+        return self.train_step.lower(self.abstract_state).compile()
+
+    def compile_reset(self) -> None:
+        """The env reset compiled ahead of time from shapes alone (then used by `reset_envs`)."""
+        keys = jax.eval_shape(lambda k: jax.random.split(k, self.config.ppo.num_envs), jax.random.PRNGKey(0))
+        self._reset = self._reset.lower(jax.ShapeDtypeStruct(keys.shape, keys.dtype, sharding=self.batch_sharded)).compile()
 
     # ---- policy ----------------------------------------------------------------------------
     def make_policy(self, params: dict, deterministic: bool = True) -> Callable:
@@ -430,7 +436,7 @@ def make_trainer(env, config: Config) -> Trainer:
 
     abstract = jax.eval_shape(abstract_init, jax.random.PRNGKey(0))
     trainer._state_sharding = trainer.state_sharding(abstract)
-    trainer._abstract_state = jax.tree_util.tree_map(
+    trainer.abstract_state = jax.tree_util.tree_map(
         lambda x, sharding: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), abstract,
         trainer._state_sharding)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)

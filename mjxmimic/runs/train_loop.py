@@ -142,9 +142,16 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     graded = config_lib.evaluation_config(config)  # training-only perturbations off (pushes, randomisation)
     eval_env = env_factory(graded) if graded != config else env
     evaluator = Evaluator(eval_env, config, trainer.make_policy)
-    # The train step compiles in a thread while the env states are drawn; the evaluator compiles
-    # in another while training starts (compilation is most of a run's first minute).
-    step_compiled = _in_background(trainer.compile_train_step)
+    # The train step, the env reset and the evaluator compile side by side from shapes alone
+    # (compilation is most of a run's first minute), and nothing runs until all three are done:
+    # under MuJoCo Warp a running program captures CUDA graphs in CUDA's global capture mode, and
+    # the capture fails ("Warp CUDA error 901") if any other thread of the process meanwhile makes
+    # a call that captures forbid, as loading a kernel module (tracing) or XLA's autotuning do.
+    compiling = [_in_background(trainer.compile_train_step), _in_background(trainer.compile_reset),
+                 _in_background(evaluator.compile, export_params(trainer.abstract_state))]
+    train_step = compiling[0].result()  # compiled once: it cannot recompile
+    for future in compiling[1:]:
+        future.result()
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -174,7 +181,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     last_ckpt_steps = env_steps
     spi = trainer.samples_per_iteration
 
-    eval_compiled = _in_background(evaluator.compile, export_params(ts))
     eval_seed = run_cfg.seed + 1
 
     def elapsed() -> float:
@@ -208,7 +214,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     def run_eval() -> dict:
         nonlocal last_eval_steps, time_to_skill
         t = time.time()
-        eval_compiled.result()
         result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
         improved = keep_if_best(result)
         state["eval_seconds"] = time.time() - t
@@ -255,7 +260,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         if not resume and run_cfg.eval_at_start and env_steps == 0:
             result = run_eval()
             bar.note(f"untrained policy: NR {result['nr']:.3f}")
-        train_step = step_compiled.result()  # compiled once: it cannot recompile
         with stop, bar:
             while env_steps < run_cfg.total_samples:
                 if stop.should_stop():
@@ -274,9 +278,9 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                 env_steps += spi
                 if first_this_call:
                     first_this_call = False
-                    bar.note(f"first iteration done in {dt:.0f} s (compilation included); "
-                             f"{elapsed() - prior_elapsed:.0f} s since the start")
-                else:  # the first iteration's time is mostly compilation: no guide to the next one's
+                    bar.note(f"first iteration done in {dt:.0f} s; {elapsed() - prior_elapsed:.0f} s "
+                             f"since the start (compilation included)")
+                else:  # the first iteration's time holds one-off work (graph captures): no guide to the next one's
                     state["iter_seconds"] = dt
                     state["steady_samples"] += spi
                     state["steady_seconds"] += dt
