@@ -227,30 +227,49 @@ def test_a_slow_first_iteration_does_not_end_the_call_early(tmp_path, monkeypatc
     assert out.reason == "done" and out.iterations == 10, out.reason
 
 
-def test_nothing_runs_until_every_compilation_has_finished(tmp_path, monkeypatch):
+@pytest.mark.parametrize("backend", ["mjx-warp", "mjx-jax"])
+def test_under_warp_nothing_runs_until_every_compilation_has_finished(tmp_path, monkeypatch, backend):
     """Under MuJoCo Warp a running program captures CUDA graphs, and a capture fails when another
     thread loads kernel modules or autotunes meanwhile (compiling does both): the first program
-    that runs (the env reset) waits for all three compilations."""
+    that runs (the env reset) waits for the train step's, the reset's and the evaluator's
+    compilations; elsewhere the evaluator may still be compiling while training starts."""
+    import threading
+
     from mjxmimic.learn.ppo import Trainer
     from mjxmimic.runs.evaluate import Evaluator
 
-    events = []
+    events, reset_ran = [], threading.Event()
+    compile_step, compile_reset, compile_eval, reset_envs = (
+        Trainer.compile_train_step, Trainer.compile_reset, Evaluator.compile, Trainer.reset_envs)
 
-    def recorded(name, method):
-        def wrapper(*args, **kwargs):
-            events.append(f"{name} start")
-            out = method(*args, **kwargs)
-            events.append(f"{name} end")
-            return out
-        return wrapper
+    def step(self):
+        out = compile_step(self)
+        events.append("step compiled")
+        return out
 
-    monkeypatch.setattr(Trainer, "compile_train_step", recorded("step compile", Trainer.compile_train_step))
-    monkeypatch.setattr(Trainer, "compile_reset", recorded("reset compile", Trainer.compile_reset))
-    monkeypatch.setattr(Evaluator, "compile", recorded("eval compile", Evaluator.compile))
-    monkeypatch.setattr(Trainer, "reset_envs", recorded("reset", Trainer.reset_envs))
-    train(_standin_config(eval_at_start="true"), tmp_path / "run", env=StandInEnv(), progress=False)
-    before_reset = set(events[:events.index("reset start")])
-    assert {"step compile end", "reset compile end", "eval compile end"} <= before_reset, events
+    def reset_compile(self):
+        compile_reset(self)
+        events.append("reset compiled")
+
+    def evaluator(self, params):
+        reset_ran.wait(timeout=5.0)  # a compilation that lasts until training starts, if it does
+        compile_eval(self, params)
+        events.append("evaluator compiled")
+
+    def reset(self, key):
+        events.append("reset")
+        reset_ran.set()
+        return reset_envs(self, key)
+
+    monkeypatch.setattr(Trainer, "compile_train_step", step)
+    monkeypatch.setattr(Trainer, "compile_reset", reset_compile)
+    monkeypatch.setattr(Evaluator, "compile", evaluator)
+    monkeypatch.setattr(Trainer, "reset_envs", reset)
+    monkeypatch.setattr(StandInEnv, "backend", backend)
+    train(_standin_config(), tmp_path / "run", env=StandInEnv(), progress=False)
+    before_reset = set(events[:events.index("reset")])
+    assert {"step compiled", "reset compiled"} <= before_reset, events
+    assert ("evaluator compiled" in before_reset) == (backend == "mjx-warp"), events
 
 
 @pytest.mark.parametrize("watch", [True, False])

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import errno
+import functools
 import math
 import os
 import shutil
@@ -142,16 +143,23 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     graded = config_lib.evaluation_config(config)  # training-only perturbations off (pushes, randomisation)
     eval_env = env_factory(graded) if graded != config else env
     evaluator = Evaluator(eval_env, config, trainer.make_policy)
-    # The train step, the env reset and the evaluator compile side by side from shapes alone
-    # (compilation is most of a run's first minute), and nothing runs until all three are done:
-    # under MuJoCo Warp a running program captures CUDA graphs in CUDA's global capture mode, and
-    # the capture fails ("Warp CUDA error 901") if any other thread of the process meanwhile makes
-    # a call that captures forbid, as loading a kernel module (tracing) or XLA's autotuning do.
-    compiling = [_in_background(trainer.compile_train_step), _in_background(trainer.compile_reset),
-                 _in_background(evaluator.compile, export_params(trainer.abstract_state))]
-    train_step = compiling[0].result()  # compiled once: it cannot recompile
-    for future in compiling[1:]:
-        future.result()
+    # The train step and the env reset compile side by side, from shapes alone (compilation is most
+    # of a run's first minute), and training starts once both are done. The evaluator compiles
+    # while training starts, except under MuJoCo Warp: there a running program captures CUDA graphs
+    # in CUDA's global capture mode, which fails ("Warp CUDA error 901") if another thread
+    # meanwhile loads a kernel module (tracing does) or autotunes (compiling does), so the
+    # evaluator compiles beside the other two and nothing runs before all three are done.
+    step_compiled = _in_background(trainer.compile_train_step)
+    reset_compiled = _in_background(trainer.compile_reset)
+    compile_evaluator = functools.partial(_in_background, evaluator.compile, export_params(trainer.abstract_state))
+    under_warp = env.backend == "mjx-warp"
+    eval_compiled = compile_evaluator() if under_warp else None
+    train_step = step_compiled.result()  # compiled once: it cannot recompile
+    reset_compiled.result()
+    if under_warp:
+        eval_compiled.result()
+    else:
+        eval_compiled = compile_evaluator()
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -214,6 +222,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     def run_eval() -> dict:
         nonlocal last_eval_steps, time_to_skill
         t = time.time()
+        eval_compiled.result()
         result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
         improved = keep_if_best(result)
         state["eval_seconds"] = time.time() - t
