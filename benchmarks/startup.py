@@ -2,10 +2,10 @@
 
 The training loop overlaps some of these (the train step and the env reset compile side by side
 in threads, the evaluator beside them under MuJoCo Warp, elsewhere while training starts);
-`mjxmimic train` prints the overlapped total ("first iteration done ... since the start"). This script runs them one after another so
-that each has its own figure, and also times the kinematics alone: the array-code forward
-kinematics that the env uses against MJX's general kinematics (mj_kinematics, mj_comPos,
-mj_comVel), which it replaced.
+`mjxmimic train` prints the overlapped total ("first iteration done ... since the start"). This
+script runs them one after another so that each has its own figure, and also times the
+kinematics alone: the array-code forward kinematics that the env uses against MJX's general
+kinematics (mj_kinematics, mj_comPos, mj_comVel), which it replaced.
 
     python benchmarks/startup.py --preset gpu --clip walk --out benchmarks/results/startup_gpu.json
 """
