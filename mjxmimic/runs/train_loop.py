@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import errno
-import functools
 import math
 import os
 import shutil
@@ -151,15 +150,12 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     # evaluator compiles beside the other two and nothing runs before all three are done.
     step_compiled = _in_background(trainer.compile_train_step)
     reset_compiled = _in_background(trainer.compile_reset)
-    compile_evaluator = functools.partial(_in_background, evaluator.compile, export_params(trainer.abstract_state))
     under_warp = env.backend == "mjx-warp"
-    eval_compiled = compile_evaluator() if under_warp else None
+    if under_warp:
+        evaluator.compile(export_params(trainer.abstract_state))  # here, while the other two compile
     train_step = step_compiled.result()  # compiled once: it cannot recompile
     reset_compiled.result()
-    if under_warp:
-        eval_compiled.result()
-    else:
-        eval_compiled = compile_evaluator()
+    eval_compiled = None if under_warp else _in_background(evaluator.compile, export_params(trainer.abstract_state))
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -222,7 +218,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     def run_eval() -> dict:
         nonlocal last_eval_steps, time_to_skill
         t = time.time()
-        eval_compiled.result()
+        if eval_compiled is not None:
+            eval_compiled.result()
         result = evaluator(export_params(ts), eval_seed, samples=env_steps, train_seconds=elapsed())
         improved = keep_if_best(result)
         state["eval_seconds"] = time.time() - t
