@@ -19,7 +19,8 @@ the truncated transition is masked out of GAE (no false "failure" value target o
 clip ends are terminations (value target 0 beyond them).
 
 Several devices: with `jax.local_device_count() > 1` the env batch (and so the rollouts) is
-sharded across a 1-D `Mesh` of the local devices (`NamedSharding` on the batch axis), parameters,
+sharded across a 1-D `Mesh` of the local devices (`NamedSharding` on the batch axis; each device
+steps the physics of its own slice, `_PerDeviceEnv`), parameters,
 optimiser and normaliser state are replicated, and XLA inserts the all-reduces (gradients,
 advantage and normaliser statistics are global). Minibatch shuffling permutes within each
 device's shard and every minibatch takes an equal slice from every device, so no trajectory
@@ -111,6 +112,48 @@ class _BatchedEnv:
     def step(self, state, action):
         inner = state.replace(info={k: v for k, v in state.info.items() if k != _STEP_METRICS})
         return self._expose(jax.vmap(self.env.step)(inner, action))
+
+
+class _PerDeviceEnv:
+    """The batched env run by each device on its own slice of the batch (`shard_map`).
+
+    Under plain jit sharding XLA must split the physics itself, and it cannot split MuJoCo Warp's
+    kernels (foreign calls): it gathers the whole batch onto every device and steps it there.
+    Here each device steps its slice, with its own contact pool and CUDA graphs. `state_specs`
+    says which env leaves are per env (split) and which all worlds share (warp's counters: each
+    device keeps its own). Empty leaves (MJX fields of size 0) stay outside the shard_map and are
+    made again around it: under Shardy (jax 0.11.2, GPU), outputs that mixed them with others
+    crashed the compiler; whether GSPMD, used now, needs this was not tried."""
+
+    def __init__(self, env: _BatchedEnv, mesh: Mesh, abstract_state: Any, state_specs: Any):
+        leaves, self._tree = jax.tree_util.tree_flatten(abstract_state)
+        specs = self._tree.flatten_up_to(state_specs)
+        self._shapes = [(x.shape, x.dtype) for x in leaves]
+        self._kept = [x.size > 0 for x in leaves]
+        d = mesh.devices.size
+        self._local_shapes = [((x.shape[0] // d,) + x.shape[1:] if spec == P(BATCH_AXIS) else x.shape, x.dtype)
+                              for x, spec in zip(leaves, specs)]
+        kept_specs = [spec for spec, kept in zip(specs, self._kept) if kept]
+        batch = P(BATCH_AXIS)
+        self._reset = jax.shard_map(lambda keys: self._strip(env.reset(keys)), mesh=mesh, in_specs=batch,
+                                    out_specs=kept_specs, check_vma=False)
+        self._step = jax.shard_map(
+            lambda kept, action: self._strip(env.step(self._fill(kept, self._local_shapes), action)),
+            mesh=mesh, in_specs=(kept_specs, batch), out_specs=kept_specs, check_vma=False)
+
+    def _strip(self, state: Any) -> list:
+        return [x for x, kept in zip(jax.tree_util.tree_leaves(state), self._kept) if kept]
+
+    def _fill(self, kept_leaves: list, shapes: list) -> Any:
+        it = iter(kept_leaves)
+        return self._tree.unflatten([next(it) if kept else jnp.zeros(shape, dtype)
+                                     for kept, (shape, dtype) in zip(self._kept, shapes)])
+
+    def reset(self, keys: jax.Array) -> Any:
+        return self._fill(self._reset(keys), self._shapes)
+
+    def step(self, state: Any, action: jax.Array) -> Any:
+        return self._fill(self._step(self._strip(state), action), self._shapes)
 
 
 def _strip_weak_type(tree):
@@ -213,7 +256,7 @@ class Trainer:
     train_step: Callable[[TrainState], tuple[TrainState, dict]] = dataclasses.field(repr=False, default=None)
     # a TrainState's shapes and shardings: what compiles the step and the evaluator, running nothing
     abstract_state: Any = dataclasses.field(repr=False, default=None)
-    _batched_env: _BatchedEnv = dataclasses.field(repr=False, default=None)
+    _batched_env: _BatchedEnv | _PerDeviceEnv = dataclasses.field(repr=False, default=None)
     _state_sharding: Any = dataclasses.field(repr=False, default=None)
     _reset: Callable = dataclasses.field(repr=False, default=None)
 
@@ -259,6 +302,10 @@ class Trainer:
         """A fresh batch of env states (RSI), sharded over the mesh."""
         keys = jax.random.split(key, self.config.ppo.num_envs)
         return self._reset(jax.device_put(keys, self.batch_sharded))
+
+    def step_envs(self, env_state: Any, action: jax.Array) -> Any:
+        """One control step of the batch, each device stepping its own slice (jit it)."""
+        return self._batched_env.step(env_state, action)
 
     def place(self, ts: TrainState) -> TrainState:
         """Put a TrainState (e.g. one restored from a checkpoint) on the mesh layout."""
@@ -405,10 +452,11 @@ def make_networks(observation_size: int, action_size: int, config: Config) -> pp
     )
 
 
-def make_trainer(env, config: Config) -> Trainer:
-    """A Trainer for `env` (the single, unbatched ImitationEnv API) and `config`."""
+def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
+    """A Trainer for `env` (the single, unbatched ImitationEnv API) and `config`, data-parallel
+    over `devices` (default: every local device)."""
     cfg = config.ppo
-    devices = jax.local_devices()
+    devices = list(devices or jax.local_devices())
     d = len(devices)
     if cfg.num_envs % d:
         raise UserError(f"config key 'ppo.num_envs': {cfg.num_envs} does not divide over the "
@@ -420,6 +468,10 @@ def make_trainer(env, config: Config) -> Trainer:
     if cfg.init_action_std <= MIN_STD:
         raise UserError(f"config key 'ppo.init_action_std': must be above {MIN_STD} (the minimum std)")
 
+    if d > 1:
+        # Shardy, JAX's default partitioner, segfaults compiling the per-device env step on GPUs
+        # (jax 0.11.2, two H100s); XLA's GSPMD partitions it. Process-wide: read when jit lowers.
+        jax.config.update("jax_use_shardy_partitioner", False)
     networks = make_networks(env.observation_size, env.action_size, config)
     mesh = Mesh(np.array(devices), (BATCH_AXIS,))
     trainer = Trainer(env=env, config=config, networks=networks, mesh=mesh,
@@ -439,6 +491,9 @@ def make_trainer(env, config: Config) -> Trainer:
     trainer.abstract_state = jax.tree_util.tree_map(
         lambda x, sharding: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), abstract,
         trainer._state_sharding)
+    if d > 1:
+        specs = jax.tree_util.tree_map(lambda sharding: sharding.spec, trainer._state_sharding.env_state)
+        trainer._batched_env = _PerDeviceEnv(trainer._batched_env, mesh, abstract.env_state, specs)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)
     trainer.train_step = jax.jit(trainer._train_step, donate_argnums=0,
                                  out_shardings=(trainer._state_sharding, trainer.replicated))

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Issue 20 on a lent two-GPU host, in two device calls (each under 10 minutes), after the warp-lang
+# wheel's four transfer calls (../shared/tools/gpu-warp.sh), with .whl (gpu-wheels.sh) and .clips
+# (a copy of ../shared/deepmimic/motions) carried:
+#   bash experiments/multi_gpu/device_calls.sh 1   # parity, bench on 1 and 2 GPUs, the backflip on 2
+#   bash experiments/multi_gpu/device_calls.sh 2   # the backflip on 1 GPU (GPU 0 alone)
+# Results land in $OUT (experiments/multi_gpu/README.md).
+set -u
+export PYTHONUNBUFFERED=1 MJXMIMIC_CLIPS=$PWD/.clips
+BF="--clip backflip --preset gpu --set run.total_samples=100000000 --set run.target_nr=0.75"
+nvidia-smi -L
+if [ "$1" = 1 ]; then
+  python3 benchmarks/multi_gpu_parity.py --preset gpu --clip walk --num-envs 1024 --steps 4 \
+    --out "$OUT/parity.json" || exit 1
+  CUDA_VISIBLE_DEVICES=0 python3 -m mjxmimic.cli bench --preset gpu --clip walk --kinds train_loop \
+    --num-envs 8192 --out "$OUT/bench_1gpu.json" 2>&1 | grep -v -i warp
+  python3 -m mjxmimic.cli bench --preset gpu --clip walk --kinds train_loop \
+    --num-envs 16384 --out "$OUT/bench_2gpu.json" 2>&1 | grep -v -i warp
+  # the same algorithm per sample as on 1 GPU: twice the envs, twice the minibatches (same size)
+  PACK=policies bash experiments/device_train.sh 200 "bf_2gpu|$BF --set ppo.num_envs=16384 --set ppo.num_minibatches=16"
+else
+  CUDA_VISIBLE_DEVICES=0 PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF"
+fi
