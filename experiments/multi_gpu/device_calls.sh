@@ -3,7 +3,7 @@
 # wheel's four transfer calls (../shared/tools/gpu-warp.sh), with .whl (gpu-wheels.sh) and .clips
 # (a copy of ../shared/deepmimic/motions) carried:
 #   bash experiments/multi_gpu/device_calls.sh 1   # parity, bench on 1 and 2 GPUs, the backflip on 2
-#   bash experiments/multi_gpu/device_calls.sh 2   # the backflip on 1 GPU (GPU 0 alone)
+#   bash experiments/multi_gpu/device_calls.sh 2 ["LANE"]   # the backflip on 1 GPU; LANE on the other
 # Results land in $OUT (experiments/multi_gpu/README.md).
 set -u
 export PYTHONUNBUFFERED=1 MJXMIMIC_CLIPS=$PWD/.clips
@@ -18,6 +18,10 @@ if [ "$1" = 1 ]; then
     --num-envs 16384 --out "$OUT/bench_2gpu.json" 2>&1 | grep -v -i warp
   # the same algorithm per sample as on 1 GPU: twice the envs, twice the minibatches (same size)
   PACK=policies bash experiments/device_train.sh 200 "bf_2gpu|$BF --set ppo.num_envs=16384 --set ppo.num_minibatches=16"
+elif [ $# -gt 1 ]; then
+  # with a second lane ("NAME|ARGS", any other 1-GPU run): one GPU each; compare bf_1gpu's steady
+  # samples/s with the 1-GPU bench (406.9 k) to see whether the lanes slowed each other
+  PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF" "$2"
 else
   CUDA_VISIBLE_DEVICES=0 PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF"
 fi
