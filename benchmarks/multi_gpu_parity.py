@@ -38,7 +38,6 @@ def compare(preset: str, clip: str, num_envs: int, steps: int, seed: int = 0) ->
     env = make_env(config)
     split = make_trainer(env, config)
     whole = make_trainer(env, config, devices[:1])
-    split.compile_reset()
     state_split = split.reset_envs(jax.random.PRNGKey(seed))
     state_whole = jax.device_put(jax.device_get(state_split), devices[0])
     step_split, step_whole = jax.jit(split.step_envs), jax.jit(whole.step_envs)
@@ -50,16 +49,14 @@ def compare(preset: str, clip: str, num_envs: int, steps: int, seed: int = 0) ->
         state_split = step_split(state_split, jax.device_put(action, split.batch_sharded))
         state_whole = step_whole(state_whole, jax.device_put(action, devices[0]))
         a, b = jax.device_get((state_split, state_whole))
-        row = {"step": t + 1, "slices": []}
+        slices = [{"device": str(device)} for device in devices]
         for name, x, y in (("qpos", a.pipeline_state.qpos, b.pipeline_state.qpos), ("obs", a.obs, b.obs),
                            ("reward", a.reward, b.reward)):
-            for i, (xs, ys) in enumerate(zip(_slices(x, d), _slices(y, d))):
-                if len(row["slices"]) <= i:
-                    row["slices"].append({"device": str(devices[i])})
-                row["slices"][i][f"{name}_max_abs_diff"] = float(np.max(np.abs(xs - ys)))
-                row["slices"][i][f"{name}_finite"] = bool(np.all(np.isfinite(xs)))
-                row["slices"][i][f"{name}_all_zero"] = bool(not np.any(xs))
-        rows.append(row)
+            for out, xs, ys in zip(slices, _slices(x, d), _slices(y, d)):
+                out[f"{name}_max_abs_diff"] = float(np.max(np.abs(xs - ys)))
+                out[f"{name}_finite"] = bool(np.all(np.isfinite(xs)))
+                out[f"{name}_all_zero"] = bool(not np.any(xs))
+        rows.append({"step": t + 1, "slices": slices})
     return {"environment": environment_info(), "preset": preset, "clip": clip, "num_envs": num_envs,
             "backend": env.backend, "steps": rows}
 

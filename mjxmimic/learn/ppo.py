@@ -20,11 +20,10 @@ clip ends are terminations (value target 0 beyond them).
 
 Several devices: with `jax.local_device_count() > 1` the env batch (and so the rollouts) is
 sharded across a 1-D `Mesh` of the local devices (`NamedSharding` on the batch axis; each device
-steps the physics of its own slice, `_PerDeviceEnv`), parameters,
-optimiser and normaliser state are replicated, and XLA inserts the all-reduces (gradients,
-advantage and normaliser statistics are global). Minibatch shuffling permutes within each
-device's shard and every minibatch takes an equal slice from every device, so no trajectory
-crosses devices.
+steps the physics of its own slice, `_PerDeviceEnv`), parameters, optimiser and normaliser state
+are replicated, and XLA inserts the all-reduces (gradients, advantage and normaliser statistics
+are global). Minibatch shuffling permutes within each device's shard and every minibatch takes an
+equal slice from every device, so no trajectory crosses devices.
 
 Initial action std. Brax's `NormalTanhDistribution` splits the policy output into (loc, s) and
 uses std = softplus(s) + 0.001 (pre-tanh). After the usual init, the last policy layer is
