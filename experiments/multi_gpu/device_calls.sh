@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Issue 20 on a lent two-GPU host, in two device calls (each under 10 minutes), after the warp-lang
+# Issue 20 on a lent two-GPU host, in three device calls (each under 10 minutes), after the warp-lang
 # wheel's four transfer calls (../shared/tools/gpu-warp.sh), with .whl (gpu-wheels.sh) and .clips
 # (a copy of ../shared/deepmimic/motions) carried:
 #   bash experiments/multi_gpu/device_calls.sh 1   # parity, bench on 1 and 2 GPUs, the backflip on 2
-#   bash experiments/multi_gpu/device_calls.sh 2 ["LANE"]   # the backflip on 1 GPU; LANE on the other
+#   bash experiments/multi_gpu/device_calls.sh 2   # bench on 1 GPU, then the backflip on 1 GPU, seeds 0 and 1
+#   bash experiments/multi_gpu/device_calls.sh 3   # the backflip on 2 GPUs, seed 1
 # Results land in $OUT (experiments/multi_gpu/README.md).
 set -u
 export PYTHONUNBUFFERED=1 MJXMIMIC_CLIPS=$PWD/.clips
@@ -18,10 +19,15 @@ if [ "$1" = 1 ]; then
     --num-envs 16384 --out "$OUT/bench_2gpu.json" 2>&1 | grep -v -i warp
   # the same algorithm per sample as on 1 GPU: twice the envs, twice the minibatches (same size)
   PACK=policies bash experiments/device_train.sh 200 "bf_2gpu|$BF --set ppo.num_envs=16384 --set ppo.num_minibatches=16"
-elif [ $# -gt 1 ]; then
-  # with a second lane ("NAME|ARGS", any other 1-GPU run): one GPU each; compare bf_1gpu's steady
-  # samples/s with the 1-GPU bench (406.9 k) to see whether the lanes slowed each other
-  PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF" "$2"
+elif [ "$1" = 2 ]; then
+  # the backflip on 1 GPU, seeds 0 and 1, one GPU each, after a 1-GPU bench that also fills
+  # warp's kernel cache (a machine's first run would otherwise spend about 65 s compiling
+  # kernels); compare the lanes' steady samples/s with the bench to see whether they slowed each other
+  CUDA_VISIBLE_DEVICES=0 python3 -m mjxmimic.cli bench --preset gpu --clip walk --kinds train_loop \
+    --num-envs 8192 --out "$OUT/bench_1gpu.json" 2>&1 | grep -v -i warp
+  PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF" "bf_1gpu_s1|$BF --set run.seed=1"
 else
-  CUDA_VISIBLE_DEVICES=0 PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF"
+  # the backflip on 2 GPUs with seed 1 (the same machine, still warm after part 2)
+  PACK=policies bash experiments/device_train.sh 200 \
+    "bf_2gpu_s1|$BF --set ppo.num_envs=16384 --set ppo.num_minibatches=16 --set run.seed=1"
 fi
