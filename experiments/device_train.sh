@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Train runs on the lent GPU within one 10-minute device call, streaming their metrics into $OUT
 # as they go and packing the run folders (latest checkpoint) at the end, so that a run can be
-# resumed in the next call (newest checkpoint only; runs.tgz.* split below the 16 MB file limit).
+# resumed in the next call (newest checkpoint only; runs_NAME.tgz.* split below the 16 MB file
+# limit; here: cat runs_NAME.tgz.* | tar xzf -).
 #   bash experiments/device_train.sh SECONDS "LANE" ["LANE" ...]
 # A LANE is "NAME|ARGS" or several of them joined by ';' (run one after the other); lanes run side
 # by side. ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with
@@ -71,7 +72,19 @@ fi
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
   ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
 done
-for n in "${names[@]}"; do  # into the archive: $OUT brings back at most 8 files
+for n in "${names[@]}"; do
   mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
 done
-tar czf - runs | split -b 15M - "$OUT/runs.tgz."
+# one archive per run, in 15 MiB parts; $OUT brings back at most 8 files and 64 MiB, so a run
+# that would not fit stays on the machine with the command that fetches it in a call of its own
+files=0; bytes=0
+for n in "${names[@]}"; do
+  tar czf "/tmp/runs_$n.tgz" "runs/$n"
+  size=$(stat -c %s "/tmp/runs_$n.tgz"); parts=$(( (size + 15728639) / 15728640 ))
+  if [ $((files + parts)) -le 8 ] && [ $((bytes + size)) -le $((60 << 20)) ]; then
+    split -b 15M "/tmp/runs_$n.tgz" "$OUT/runs_$n.tgz."; files=$((files + parts)); bytes=$((bytes + size))
+  else
+    echo "runs/$n ($((size >> 20)) MiB) left on the machine, over what comes back; fetch it next:" \
+      "split -b 15M /tmp/runs_$n.tgz \$OUT/runs_$n.tgz."
+  fi
+done
