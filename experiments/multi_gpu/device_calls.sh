@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Issue 20 on a lent two-GPU host, in three device calls (each under 10 minutes), after the warp-lang
+# Issue 20 on a lent two-GPU host, in four device calls (each under 10 minutes), after the warp-lang
 # wheel's four transfer calls (../shared/tools/gpu-warp.sh), with .whl (gpu-wheels.sh) and .clips
 # (a copy of ../shared/deepmimic/motions) carried:
 #   bash experiments/multi_gpu/device_calls.sh 1   # parity, bench on 1 and 2 GPUs, the backflip on 2
 #   bash experiments/multi_gpu/device_calls.sh 2   # bench on 1 GPU, then the backflip on 1 GPU, seeds 0 and 1
 #   bash experiments/multi_gpu/device_calls.sh 3   # the backflip on 2 GPUs, seed 1
+#   bash experiments/multi_gpu/device_calls.sh 4   # the backflip on 1 GPU, seed 0, the other GPU idle
 # Results land in $OUT (experiments/multi_gpu/README.md).
 set -u
 export PYTHONUNBUFFERED=1 MJXMIMIC_CLIPS=$PWD/.clips
@@ -26,8 +27,11 @@ elif [ "$1" = 2 ]; then
   CUDA_VISIBLE_DEVICES=0 python3 -m mjxmimic.cli bench --preset gpu --clip walk --kinds train_loop \
     --num-envs 8192 --out "$OUT/bench_1gpu.json" 2>&1 | grep -v -i warp
   PACK=policies bash experiments/device_train.sh 330 "bf_1gpu|$BF" "bf_1gpu_s1|$BF --set run.seed=1"
-else
+elif [ "$1" = 3 ]; then
   # the backflip on 2 GPUs with seed 1 (the same machine, still warm after part 2)
   PACK=policies bash experiments/device_train.sh 200 \
     "bf_2gpu_s1|$BF --set ppo.num_envs=16384 --set ppo.num_minibatches=16 --set run.seed=1"
+else
+  # the backflip on 1 GPU, seed 0, with the other GPU idle
+  CUDA_VISIBLE_DEVICES=0 PACK=policies bash experiments/device_train.sh 330 "bf_1gpu_alone|$BF"
 fi
