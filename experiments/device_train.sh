@@ -7,16 +7,19 @@
 # A LANE is "NAME|ARGS" or several of them joined by ';' (run one after the other); lanes run side
 # by side. ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with
 # ARGS, which may then only be --set run.* or ppo.learning_rate* keys). SECONDS bounds each run.
-# Several lanes on a machine with a GPU for each: one GPU per lane; otherwise they share the GPUs
-# (one lane alone trains data-parallel).
+# Several lanes with a GPU for each (of those CUDA_VISIBLE_DEVICES names, else of the machine): one
+# GPU per lane; otherwise they share the GPUs (one lane alone trains data-parallel).
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
 set -u
 seconds=$1; shift
 export PYTHONUNBUFFERED=1
+# the GPUs this script may use: those CUDA_VISIBLE_DEVICES names, else all of the machine's
+if [ -n "${CUDA_VISIBLE_DEVICES:-}" ]; then IFS=, read -ra gpus <<< "$CUDA_VISIBLE_DEVICES"
+else mapfile -t gpus < <(nvidia-smi --query-gpu=index --format=csv,noheader 2>/dev/null); fi
 own_gpu=0
-if [ $# -gt 1 ] && [ "$(nvidia-smi -L 2>/dev/null | wc -l)" -ge $# ]; then own_gpu=1; fi
+if [ $# -gt 1 ] && [ ${#gpus[@]} -ge $# ]; then own_gpu=1; fi
 if [ "$own_gpu" = 1 ]; then export XLA_PYTHON_CLIENT_MEM_FRACTION=0.75
 else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2))"); fi
 
@@ -36,7 +39,7 @@ for lane in "$@"; do
   IFS=';' read -ra specs <<< "$lane"
   for spec in "${specs[@]}"; do names+=("${spec%%|*}"); done
   (
-    if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=$i; fi
+    if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=${gpus[$i]}; fi
     for spec in "${specs[@]}"; do
       # shellcheck disable=SC2086
       train "${spec%%|*}" ${spec#*|}
