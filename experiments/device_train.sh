@@ -6,7 +6,10 @@
 #   bash experiments/device_train.sh SECONDS "LANE" ["LANE" ...]
 # A LANE is "NAME|ARGS" or several of them joined by ';' (run one after the other); lanes run side
 # by side. ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with
-# ARGS, which may then only be --set run.* or ppo.learning_rate* keys). SECONDS bounds each run.
+# ARGS, which may then only be --set run.* or ppo.learning_rate* keys). Each lane ends within
+# SECONDS: a run gets the time its lane has left.
+# A NAME that starts with "bench_" runs `mjxmimic bench ARGS` instead (its JSON and log come back
+# together in bench.tgz), so that a lane can measure on its GPU before it trains.
 # Several lanes with a GPU for each (of those CUDA_VISIBLE_DEVICES names, else of the machine): one
 # GPU per lane; otherwise they share the GPUs (one lane alone trains data-parallel).
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
@@ -14,6 +17,8 @@
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
 set -u
 seconds=$1; shift
+deadline=$(( $(date +%s) + seconds ))
+rm -rf /tmp/bench
 export PYTHONUNBUFFERED=1
 # the GPUs this script may use: those CUDA_VISIBLE_DEVICES names, else all of the machine's
 if [ -n "${CUDA_VISIBLE_DEVICES:-}" ]; then IFS=, read -ra gpus <<< "$CUDA_VISIBLE_DEVICES"
@@ -25,11 +30,18 @@ else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2)
 
 train() {  # NAME ARGS...
   local name=$1; shift
+  local left=$(( deadline - $(date +%s) ))
   if [ -d "runs/$name/checkpoints" ]; then
-    python3 -m mjxmimic.cli train --resume "runs/$name" "$@" --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1
+    python3 -m mjxmimic.cli train --resume "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
   else
-    python3 -m mjxmimic.cli train --out "runs/$name" "$@" --set run.max_seconds=$seconds > "$OUT/$name.log" 2>&1
+    python3 -m mjxmimic.cli train --out "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
   fi
+}
+
+bench() {  # NAME ARGS...
+  local name=$1; shift
+  mkdir -p /tmp/bench
+  python3 -m mjxmimic.cli bench "$@" --out "/tmp/bench/$name.json" > "/tmp/bench/$name.log" 2>&1
 }
 
 names=()
@@ -37,12 +49,13 @@ pids=()
 i=0
 for lane in "$@"; do
   IFS=';' read -ra specs <<< "$lane"
-  for spec in "${specs[@]}"; do names+=("${spec%%|*}"); done
+  for spec in "${specs[@]}"; do [[ $spec == bench_* ]] || names+=("${spec%%|*}"); done
   (
     if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=${gpus[$i]}; fi
     for spec in "${specs[@]}"; do
+      job=train; [[ $spec == bench_* ]] && job=bench
       # shellcheck disable=SC2086
-      train "${spec%%|*}" ${spec#*|}
+      $job "${spec%%|*}" ${spec#*|}
     done
   ) &
   pids+=($!)
@@ -65,6 +78,11 @@ for line in open(sys.argv[1] + "/metrics.jsonl"):
               f"  paper {d['eval/nr_paper']:.3f}  falls {d['eval/fall_rate']:.2f}{extra}")
 PY
 done
+files=0; bytes=0
+if [ -d /tmp/bench ]; then
+  for f in /tmp/bench/*.log; do echo "== ${f##*/}"; grep -v -i warp "$f" | tail -n 8; done
+  tar czf "$OUT/bench.tgz" -C /tmp bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
+fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
   for n in "${names[@]}"; do python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed"; done
   for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done
@@ -80,7 +98,6 @@ for n in "${names[@]}"; do
 done
 # one archive per run, in 15 MiB parts; $OUT brings back at most 8 files and 64 MiB, so a run
 # that would not fit stays on the machine with the command that fetches it in a call of its own
-files=0; bytes=0
 for n in "${names[@]}"; do
   tar czf "/tmp/runs_$n.tgz" "runs/$n"
   size=$(stat -c %s "/tmp/runs_$n.tgz"); parts=$(( (size + 15728639) / 15728640 ))
