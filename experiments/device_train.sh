@@ -32,16 +32,16 @@ train() {  # NAME ARGS...
   local name=$1; shift
   local left=$(( deadline - $(date +%s) ))
   if [ -d "runs/$name/checkpoints" ]; then
-    python3 -m mjxmimic.cli train --resume "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
+    timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train --resume "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
   else
-    python3 -m mjxmimic.cli train --out "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
+    timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train --out "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
   fi
 }
 
 bench() {  # NAME ARGS...
   local name=$1; shift
   mkdir -p /tmp/bench
-  python3 -m mjxmimic.cli bench "$@" --out "/tmp/bench/$name.json" > "/tmp/bench/$name.log" 2>&1
+  timeout $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli bench "$@" --out "/tmp/bench/$name.json" > "/tmp/bench/$name.log" 2>&1
 }
 
 names=()

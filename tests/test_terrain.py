@@ -16,7 +16,7 @@ def test_height_numpy_equals_jax_and_courses_are_sane(kind):
     t = T.generate(kind, seed=3, difficulty=0.7, lanes=3, length=12.0)
     xy = np.random.default_rng(0).uniform([-2, -2], [16, 8], (500, 2)).astype(np.float32)
     h_np = T.height(t.boxes, t.depth, xy, np)
-    h_jax = np.asarray(T.height(jnp.asarray(t.boxes), t.depth, jnp.asarray(xy), jnp))
+    h_jax = np.asarray(jax.jit(lambda p: T.height(t.boxes, t.depth, p, jnp))(jnp.asarray(xy)))
     np.testing.assert_allclose(h_np, h_jax, atol=1e-6)
     assert h_np.min() >= -t.depth and h_np.max() <= 1.5
     # every lane's start pad is flat ground, and the course goes on past its end
@@ -27,6 +27,17 @@ def test_height_numpy_equals_jax_and_courses_are_sane(kind):
     # the same seed gives the same course, another seed another one
     assert np.array_equal(T.generate(kind, seed=3, difficulty=0.7, lanes=3, length=12.0).boxes, t.boxes)
     assert not np.array_equal(T.generate(kind, seed=4, difficulty=0.7, lanes=3, length=12.0).boxes, t.boxes)
+
+
+def test_height_is_the_highest_box_and_compiles_without_a_reduction():
+    t = T.generate("stairs", seed=1, difficulty=0.5, lanes=4, length=40.0)  # ~200 boxes
+    xy = np.random.default_rng(1).uniform([-2, -2], [45, 11], (2000, 2)).astype(np.float32)
+    b = t.boxes
+    inside = (np.abs(xy[:, None, 0] - b[:, 0]) <= b[:, 2]) & (np.abs(xy[:, None, 1] - b[:, 1]) <= b[:, 3])
+    np.testing.assert_array_equal(T.height(b, t.depth, xy, np), np.where(inside, b[:, 4], -t.depth).max(-1))
+    # an XLA reduction over (points, boxes) took minutes to compile on the GPU: keep it elementwise
+    jaxpr = str(jax.make_jaxpr(lambda p: T.height(b, t.depth, p, jnp))(jnp.asarray(xy)))
+    assert "reduce_max" not in jaxpr and "argmax" not in jaxpr
 
 
 def test_gaps_have_gaps_and_stairs_climb():
@@ -48,7 +59,7 @@ def test_heightmap_in_heading_frame():
     c, s = np.cos(yaw), np.sin(yaw)
     world = root[:2] + offsets @ np.array([[c, s], [-s, c]])
     np.testing.assert_allclose(hm, T.height(t.boxes, t.depth, world, np) - root[2], atol=1e-6)
-    hm_jax = T.heightmap(jnp.asarray(t.boxes), t.depth, jnp.asarray(offsets), jnp.asarray(root), yaw, jnp)
+    hm_jax = T.heightmap(t.boxes, t.depth, jnp.asarray(offsets), jnp.asarray(root), yaw, jnp)
     np.testing.assert_allclose(hm, np.asarray(hm_jax), atol=1e-5)
 
 

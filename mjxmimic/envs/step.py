@@ -107,9 +107,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
     lib = motion_lib.build_motion_lib(clips, character, weights)
     if xp is not np:
         lib = lib._replace(**{k: xp.asarray(v) for k, v in lib._asdict().items() if k != "layout"})
-    env, terrain = config.env, terrain_lib.from_config(config.terrain)
-    if terrain is not None:
-        terrain = terrain._replace(boxes=xp.asarray(terrain.boxes))
+    env, terrain = config.env, terrain_lib.from_config(config.terrain)  # its boxes stay on the host
     return Spec(
         layout=make_layout(character),
         lib=lib,
