@@ -18,7 +18,6 @@
 set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
-rm -rf /tmp/bench
 export PYTHONUNBUFFERED=1
 # the GPUs this script may use: those CUDA_VISIBLE_DEVICES names, else all of the machine's
 if [ -n "${CUDA_VISIBLE_DEVICES:-}" ]; then IFS=, read -ra gpus <<< "$CUDA_VISIBLE_DEVICES"
@@ -81,7 +80,8 @@ done
 files=0; bytes=0
 if [ -d /tmp/bench ]; then
   for f in /tmp/bench/*.log; do echo "== ${f##*/}"; grep -v -i warp "$f" | tail -n 8; done
-  tar czf "$OUT/bench.tgz" -C /tmp bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
+  # cleared once packed: results of a call killed before this point come back with the next one
+  tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
   for n in "${names[@]}"; do python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed"; done
