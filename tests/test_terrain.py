@@ -204,8 +204,8 @@ def test_cpu_training_on_terrain_exports_and_replays(tmp_path, capsys):
 
     run = tmp_path / "run"
     assert cli.main(["train", "--preset", "cpu", "--terrain", "gaps", "--task", "heading", "--out", str(run),
-                     "--set", "run.total_samples=20000", "--set", "run.eval_every=10000",
-                     "--set", "run.checkpoint_every=10000", "--set", "run.eval_episodes=4",
+                     "--set", "run.total_samples=6144", "--set", "run.eval_every=3072",
+                     "--set", "run.checkpoint_every=3072", "--set", "run.eval_episodes=4",
                      "--set", "terrain.lanes=1", "--set", "terrain.length_m=6"]) == 0  # few boxes: impl='jax' tests them all
     assert json.loads((run / "config.json").read_text())["terrain"]["kind"] == "gaps"
     assert cli.main(["export", str(run)]) == 0
