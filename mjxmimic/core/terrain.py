@@ -77,14 +77,17 @@ def _beam(rng: np.random.Generator, difficulty: float, length: float, half: floa
 def _stairs(rng: np.random.Generator, difficulty: float, length: float, half: float) -> list[tuple[float, ...]]:
     """Flights of 4-8 steps up (rise 0.05 + 0.15 d, tread 0.3-0.4 m), a 3-tread landing, as many
     down, 3 treads flat. A flight is nested boxes (step k's box spans from the k-th tread up to
-    the k-th tread down), so the height is their maximum and the geom count is one per step."""
+    the k-th tread down), so the height is their maximum and the geom count is one per step.
+    Step k is k mm narrower on each side than the ground under it, so that no two boxes share a
+    side face (coplanar faces flicker in renders)."""
     boxes, x = [_ground(0.0, 1.0, half)], 1.0
     while x < length:
         steps, rise, tread = int(rng.integers(4, 9)), 0.05 + 0.15 * difficulty, rng.uniform(0.3, 0.4)
         span = (2 * steps + 2) * tread  # up, landing (the top step's tread + 2 more), down
         boxes.append(_ground(x, x + span + 3 * tread, half))
         for k in range(steps):
-            boxes.append(_box(x + k * tread, x + span - k * tread, -half, half, rise * (k + 1)))
+            inset = 1e-3 * (k + 1)
+            boxes.append(_box(x + k * tread, x + span - k * tread, -half + inset, half - inset, rise * (k + 1)))
         x += span + 3 * tread
     boxes.append(_ground(min(x, length), max(x, length) + END_PAD_M, half))
     return boxes
