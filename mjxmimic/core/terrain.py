@@ -78,8 +78,8 @@ def _stairs(rng: np.random.Generator, difficulty: float, length: float, half: fl
     """Flights of 4-8 steps up (rise 0.05 + 0.15 d, tread 0.3-0.4 m), a 3-tread landing, as many
     down, 3 treads flat. A flight is nested boxes (step k's box spans from the k-th tread up to
     the k-th tread down), so the height is their maximum and the geom count is one per step.
-    Step k is k mm narrower on each side than the ground under it, so that no two boxes share a
-    side face (coplanar faces flicker in renders)."""
+    The n-th step up is n mm narrower on each side than the ground under it, so that no two
+    boxes share a side face (coplanar faces flicker in renders)."""
     boxes, x = [_ground(0.0, 1.0, half)], 1.0
     while x < length:
         steps, rise, tread = int(rng.integers(4, 9)), 0.05 + 0.15 * difficulty, rng.uniform(0.3, 0.4)
