@@ -86,8 +86,8 @@ def _stairs(rng: np.random.Generator, difficulty: float, length: float, half: fl
         span = (2 * steps + 2) * tread  # up, landing (the top step's tread + 2 more), down
         boxes.append(_ground(x, x + span + 3 * tread, half))
         for k in range(steps):
-            inset = 1e-3 * (k + 1)
-            boxes.append(_box(x + k * tread, x + span - k * tread, -half + inset, half - inset, rise * (k + 1)))
+            side = half - 1e-3 * (k + 1)
+            boxes.append(_box(x + k * tread, x + span - k * tread, -side, side, rise * (k + 1)))
         x += span + 3 * tread
     boxes.append(_ground(min(x, length), max(x, length) + END_PAD_M, half))
     return boxes
