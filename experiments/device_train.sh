@@ -29,12 +29,10 @@ else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2)
 
 train() {  # NAME ARGS...
   local name=$1; shift
-  local left=$(( deadline - $(date +%s) ))
-  if [ -d "runs/$name/checkpoints" ]; then
-    timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train --resume "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
-  else
-    timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train --out "runs/$name" "$@" --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
-  fi
+  local left=$(( deadline - $(date +%s) )) folder=--out
+  [ -d "runs/$name/checkpoints" ] && folder=--resume
+  timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train "$folder" "runs/$name" "$@" \
+    --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
 }
 
 bench() {  # NAME ARGS...
