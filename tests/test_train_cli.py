@@ -398,6 +398,23 @@ def test_the_best_evaluation_keeps_its_checkpoint(tmp_path):
     assert meta["checkpoint"] == top["step"] and meta["best"]
 
 
+def test_a_task_run_keeps_the_best_of_what_it_trains_for():
+    from mjxmimic.runs.train_loop import best_score
+
+    early = {"nr": 0.78, "nr_paper": 0.76, "task_return": 0.63}
+    late = {"nr": 0.53, "nr_paper": 0.54, "task_return": 0.87}
+    config = config_lib.make_config("cpu")
+    assert best_score(config, early) == ("nr", 0.78)  # imitation alone: the NR
+    both = config_lib.apply_overrides(config, {"task.name": "throw"})
+    assert best_score(both, early)[1] == pytest.approx(0.7 * 0.78 + 0.3 * 0.63)
+    assert best_score(both, early)[1] > best_score(both, late)[1]
+    task_only = config_lib.apply_overrides(both, {"task.imitation_weight": 0, "task.task_weight": 1})
+    assert best_score(task_only, late) == ("0 nr + 1 task_return", 0.87)
+    assert best_score(task_only, late)[1] > best_score(task_only, early)[1]
+    paper = config_lib.apply_overrides(config, {"reward.kind": "paper"})
+    assert best_score(paper, early) == ("nr_paper", 0.76)
+
+
 def test_without_a_preset_the_device_chooses_and_says_so(capsys, tmp_path):
     from mjxmimic.commands.train import add_arguments
 

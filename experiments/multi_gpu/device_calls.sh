@@ -6,6 +6,7 @@
 #   bash experiments/multi_gpu/device_calls.sh 2   # bench on 1 GPU, then the backflip on 1 GPU, seeds 0 and 1
 #   bash experiments/multi_gpu/device_calls.sh 3   # the backflip on 2 GPUs, seed 1
 #   bash experiments/multi_gpu/device_calls.sh 4   # the backflip on 1 GPU, seed 0, the other GPU idle
+#   bash experiments/multi_gpu/device_calls.sh 5   # on a four-GPU host: bench on 1, 2 and 4 GPUs
 # Results land in $OUT (experiments/multi_gpu/README.md).
 set -u
 export PYTHONUNBUFFERED=1 MJXMIMIC_CLIPS=$PWD/.clips
@@ -31,6 +32,13 @@ elif [ "$1" = 3 ]; then
   # the backflip on 2 GPUs with seed 1 (the same machine, still warm after part 2)
   PACK=policies bash experiments/device_train.sh 200 \
     "bf_2gpu_s1|$BF --set ppo.num_envs=16384 --set ppo.num_minibatches=16 --set run.seed=1"
+elif [ "$1" = 5 ]; then
+  # the full loop on 1, 2 and 4 GPUs of one host, 8192 envs a GPU (the 1-GPU bench, first, also
+  # fills warp's kernel cache)
+  for n in 1 2 4; do
+    CUDA_VISIBLE_DEVICES=$(seq -s, 0 $((n - 1))) python3 -m mjxmimic.cli bench --preset gpu --clip walk \
+      --kinds train_loop --num-envs $((8192 * n)) --out "$OUT/bench_${n}gpu.json" 2>&1 | grep -v -i warp
+  done
 else
   # the backflip on 1 GPU, seed 0, with the other GPU idle
   CUDA_VISIBLE_DEVICES=0 PACK=policies bash experiments/device_train.sh 330 "bf_1gpu_alone|$BF"

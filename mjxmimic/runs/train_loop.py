@@ -107,6 +107,18 @@ def _device_info() -> dict:
             "jax": jax.__version__}
 
 
+def best_score(config: config_lib.Config, result: dict) -> tuple[str, float]:
+    """What the best checkpoint maximises: the evaluation of the reward the run trains on. The NR
+    (in the run's reward form); with a task, the task's weights over that NR and the task return,
+    so that a task-only run keeps its best task policy rather than its best imitation."""
+    nr = "nr_paper" if config.reward.kind == "paper" else "nr"
+    if not config.task.name or "task_return" not in result:
+        return nr, float(result[nr])
+    task = config.task
+    return (f"{task.imitation_weight:g} {nr} + {task.task_weight:g} task_return",
+            float(task.imitation_weight * result[nr] + task.task_weight * result["task_return"]))
+
+
 def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
           env_factory: Callable | None = None, start_time: float | None = None,
           progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
@@ -200,18 +212,18 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
              "eval_seconds": 0.0}
 
     best = folder.read_best(run_dir) if resume else None
-    best_metric = "nr_paper" if config.reward.kind == "paper" else "nr"
 
     def keep_if_best(result: dict) -> bool:
         """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
         so that best.json never names a checkpoint that is not there); whether it was the best."""
         nonlocal best
-        if best is not None and result[best_metric] <= best["value"]:
+        metric, value = best_score(config, result)
+        # the recorded best is scored again: a run resumed under other task weights compares alike
+        if best is not None and value <= best_score(config, best["eval"])[1]:
             return False
         checkpoint.save(run_dir, ts, iterations=iterations, elapsed_seconds=elapsed(), best=True,
                         extra={"samples_per_iteration": spi})
-        best = {"metric": best_metric, "value": result[best_metric], "checkpoint": env_steps,
-                "eval": dict(result, seed=eval_seed)}
+        best = {"metric": metric, "value": value, "checkpoint": env_steps, "eval": dict(result, seed=eval_seed)}
         folder.write_json_atomic(folder.best_path(run_dir), best)
         return True
 
