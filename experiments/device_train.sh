@@ -82,7 +82,10 @@ if [ -d /tmp/bench ]; then
   tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
-  for n in "${names[@]}"; do python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed"; done
+  for n in "${names[@]}"; do  # side by side: one after the other, five exports overran a call
+    (python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed") &
+  done
+  wait
   for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done
   keep_best=(--exclude=best); [ "$PACK" = best ] && keep_best=()
   tar czf - --exclude=checkpoints "${keep_best[@]}" runs | split -b 15M - "$OUT/policies.tgz."

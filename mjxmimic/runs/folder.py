@@ -5,7 +5,7 @@ parts through these names, so the layout is written down once.
     RUN/metrics.jsonl  one line per iteration and per evaluation (mjxmimic.runs.metrics_log)
     RUN/tb/            the same scalars for TensorBoard
     RUN/checkpoints/   orbax checkpoints named by env_steps (mjxmimic.runs.checkpoint)
-    RUN/best/          the checkpoint of the best evaluation so far (NR of the run's reward form)
+    RUN/best/          the checkpoint of the best evaluation so far (runs.train_loop.best_score)
     RUN/best.json      that evaluation: {"metric", "value", "checkpoint", "eval"}
     RUN/eval.json      the latest NR evaluation (mjxmimic.runs.evaluate) with the run's summary
     RUN/eval_<N>.json  `mjxmimic eval`'s evaluation of checkpoint N
