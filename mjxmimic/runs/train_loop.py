@@ -3,8 +3,8 @@
 What it writes (names from mjxmimic.runs.folder): the resolved config before the first step;
 a metrics line per iteration and per evaluation; a checkpoint every run.checkpoint_every
 samples, at the end, at run.max_seconds and on Ctrl-C; a checkpoint into RUN/best at every
-evaluation that beats the run's best so far (NR of its reward form, recorded in best.json, read
-back on resume); and at the end (done, or the target NR reached) eval.json: the final NR
+evaluation that beats the run's best so far (`best_score`: the NR of its reward form, with a task
+weighed with the task return; recorded in best.json, read back on resume); and at the end (done, or the target NR reached) eval.json: the final NR
 evaluation with the run's samples, wall-clock, steady-state samples/s and time to skill.
 
 run.max_seconds bounds one call (compilation included); the run stops cleanly with a checkpoint
