@@ -4,8 +4,9 @@ What it writes (names from mjxmimic.runs.folder): the resolved config before the
 a metrics line per iteration and per evaluation; a checkpoint every run.checkpoint_every
 samples, at the end, at run.max_seconds and on Ctrl-C; a checkpoint into RUN/best at every
 evaluation that beats the run's best so far (`best_score`: the NR of its reward form, with a task
-weighed with the task return; recorded in best.json, read back on resume); and at the end (done, or the target NR reached) eval.json: the final NR
-evaluation with the run's samples, wall-clock, steady-state samples/s and time to skill.
+weighed with the task return; recorded in best.json, read back on resume); and at the end (done,
+or the target NR reached) eval.json: the final NR evaluation with the run's samples, wall-clock,
+steady-state samples/s and time to skill.
 
 run.max_seconds bounds one call (compilation included); the run stops cleanly with a checkpoint
 and continues on resume, up to run.total_samples. Time to skill is the wall-clock since the
@@ -112,7 +113,7 @@ def best_score(config: config_lib.Config, result: dict) -> tuple[str, float]:
     (in the run's reward form); with a task, the task's weights over that NR and the task return,
     so that a task-only run keeps its best task policy rather than its best imitation."""
     nr = "nr_paper" if config.reward.kind == "paper" else "nr"
-    if not config.task.name or "task_return" not in result:
+    if not config.task.name:  # a task's evaluation always carries its task_return
         return nr, float(result[nr])
     task = config.task
     return (f"{task.imitation_weight:g} {nr} + {task.task_weight:g} task_return",
@@ -223,7 +224,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
             return False
         checkpoint.save(run_dir, ts, iterations=iterations, elapsed_seconds=elapsed(), best=True,
                         extra={"samples_per_iteration": spi})
-        best = {"metric": metric, "value": value, "checkpoint": env_steps, "eval": dict(result, seed=eval_seed)}
+        best = {"metric": metric, "value": value, "checkpoint": env_steps,
+                "eval": dict(result, seed=eval_seed)}
         folder.write_json_atomic(folder.best_path(run_dir), best)
         return True
 
