@@ -125,6 +125,24 @@ def test_terrain_env_rsi_heightmap_and_gap_fall(character):
     assert out.failed and out.metrics["fell"] == 1.0
 
 
+@pytest.mark.parametrize("shape,size,stride", [((16, 16, 1), 4, 2), ((8, 8, 16), 3, 2), ((4, 4, 32), 3, 1),
+                                               ((7, 9, 3), 4, 2)])
+def test_patch_conv_is_flax_conv(shape, size, stride):
+    """The encoder's convolution as a matrix product over patches: linen.Conv's parameters and values."""
+    from flax import linen
+
+    from mjxmimic.learn.networks import PatchConv
+
+    x = jax.random.normal(jax.random.PRNGKey(0), (5, *shape))
+    conv = linen.Conv(6, (size, size), strides=(stride, stride), padding="SAME")
+    params = conv.init(jax.random.PRNGKey(1), x)
+    params = jax.tree_util.tree_map(lambda p: p + 0.1, params)  # a bias that is not zero
+    patch = PatchConv(6, size, stride)
+    assert jax.tree_util.tree_map(jnp.shape, patch.init(jax.random.PRNGKey(1), x)) == \
+        jax.tree_util.tree_map(jnp.shape, params)
+    np.testing.assert_allclose(patch.apply(params, x), conv.apply(params, x), atol=1e-5)
+
+
 def test_heightmap_policy_numpy_equals_jax():
     from brax.training.acme import running_statistics
 
