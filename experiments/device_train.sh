@@ -6,7 +6,7 @@
 #   bash experiments/device_train.sh SECONDS "LANE" ["LANE" ...]
 # A LANE is "NAME|ARGS" or several of them joined by ';' (run one after the other); lanes run side
 # by side. ARGS are `mjxmimic train` arguments; an existing runs/NAME is resumed instead (with
-# ARGS, which may then only be --set run.* or ppo.learning_rate* keys). Each lane ends within
+# its --set run.* and ppo.learning_rate* keys of ARGS, the rest dropped). Each lane ends within
 # SECONDS: a run gets the time its lane has left.
 # A NAME that starts with "bench_" runs `mjxmimic bench ARGS` instead (its JSON and log come back
 # together in bench.tgz), so that a lane can measure on its GPU before it trains.
@@ -15,6 +15,7 @@
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
+# PACK=none: bring back only the logs and metrics; the runs stay on the warm machine for the next call.
 set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
@@ -30,7 +31,15 @@ else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2)
 train() {  # NAME ARGS...
   local name=$1; shift
   local left=$(( deadline - $(date +%s) )) folder=--out
-  [ -d "runs/$name/checkpoints" ] && folder=--resume
+  if [ -d "runs/$name/checkpoints" ]; then  # resumed: of ARGS, only what a resume may change
+    folder=--resume
+    local keep=()
+    while [ $# -gt 0 ]; do
+      if [ "$1" = --set ] && [[ ${2:-} == run.* || ${2:-} == ppo.learning_rate* ]]; then keep+=("$1" "$2"); shift; fi
+      shift
+    done
+    set -- "${keep[@]}"
+  fi
   timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train "$folder" "runs/$name" "$@" \
     --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
 }
@@ -81,6 +90,7 @@ if [ -d /tmp/bench ]; then
   # cleared once packed: results of a call killed before this point come back with the next one
   tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
+[ "${PACK:-}" = none ] && exit 0
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
   for n in "${names[@]}"; do  # side by side: one after the other, five exports overran a call
     (python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed") &

@@ -227,20 +227,19 @@ PRESETS: dict[str, dict[str, Any]] = {
     # The real thing, on one GPU: 240 Hz physics with 4 Newton x 4 line-search iterations (the
     # physics study), 8192 envs x 16 steps = 131072 samples per iteration, the batch of 4096 x 32
     # gathered 1.2x faster (benchmarks/RESULTS.md; 16384 x 8 was faster still but learned
-    # unstably); 48 M samples with a cosine learning rate, which fit one 10-minute call on an H200
-    # (walk: NR 0.865 in 539 s, experiments/README.md). Pose termination at 1 m: without it a
-    # backflip stood still under its flipping reference (NR 0.37 against 0.64 at 20 M); with it
-    # kick, punch and cartwheel passed the paper's NR within 48 M (experiments/skills). The
-    # networks multiply in bfloat16 (float32 sums and parameters): the PPO update is the part of
-    # an iteration that is not physics, and walk and backflip learned as before with it
-    # (benchmarks/RESULTS.md, experiments/README.md).
+    # unstably); 100 M samples with a cosine learning rate, one 10-minute call on an H200: every
+    # clip of the skill suite still gained from 48 M to 100 M (experiments/skills). Pose
+    # termination at 1 m: without it a backflip stood still under its flipping reference (NR 0.37
+    # against 0.64 at 20 M). The networks multiply in bfloat16 (float32 sums and parameters):
+    # the PPO update is the part of an iteration that is not physics, and walk and backflip
+    # learned as before with it (benchmarks/RESULTS.md, experiments/README.md).
     "gpu": {
         "env.pose_termination_m": 1.0,
         "ppo.matmul_precision": "BF16_BF16_F32",
         "ppo.num_envs": 8192,
         "ppo.unroll_length": 16,
         "ppo.learning_rate_schedule": "cosine",
-        "run.total_samples": 48_000_000,
+        "run.total_samples": 100_000_000,
         "run.eval_every": 10_000_000,
         "run.checkpoint_every": 10_000_000,
     },
