@@ -1,8 +1,11 @@
 """The target-heading task (mjxmimic.task.goals): its goals, reward, observation, the reference that
 turns with the character, and the task metrics of an evaluation."""
 
+import dataclasses
 import math
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -199,10 +202,50 @@ def test_a_hit_pays_one_and_stays_recorded(strike_env):
     assert after["task/hit"] == 1.0 and after["reward/task"] == 1.0 and after["task/distance"] > 4.0
 
 
-def test_strike_success_is_a_hit_and_bad_body_is_one_line(character):
-    acc = {"reward/task": np.array([3.0, 1.0]), "task/hit": np.array([2.0, 0.0]), "task/distance": np.ones(2)}
+def test_each_cycle_of_the_clip_brings_a_new_target(character):
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    each_cycle = dataclasses.replace(STRIKE.task, target_each_cycle=True)
+    clip = load_clip_source("slow_walk", character)
+    env = CpuEnv(dataclasses.replace(STRIKE, task=each_cycle), character, clip)
+    duration = float(env.clip_durations[0])
+    zero = np.zeros(env.character.action_size)
+    env.reset_at(duration - 1.5 * env.control_dt, event_seed=0.3)
+    first = env.motion.goal.copy()
+    hit_already = np.concatenate([first[:3], [1.0]]).astype(np.float32)
+    env.motion = env.motion._replace(goal=hit_already)
+    same = env.step(zero).metrics  # still in the first cycle
+    assert same["task/new_target"] == 0.0 and same["task/new_hit"] == 0.0 and env.motion.goal[3] == 1.0
+    crossed = env.step(zero).metrics  # into the second cycle
+    goal = env.motion.goal
+    assert crossed["task/new_target"] == 1.0 and crossed["task/hit"] == 1.0  # the old target's flag
+    assert goal[3] == 0.0 and not np.allclose(goal[:2], first[:2])
+    assert 0.6 - 1e-3 <= np.hypot(*(goal[:2] - env.data.qpos[:2])) <= 0.9 + 1e-3
+    assert goal[2] == pytest.approx(1.2)
+    assert env.step(zero).metrics["task/new_target"] == 0.0 and np.array_equal(env.motion.goal, goal)
+    # the same rule traced by JAX (the MJX env's step)
+    lib = env.spec.lib
+    renew = jax.jit(lambda a, b: goals.renew_target(each_cycle, lib, 0, a, b, jnp.zeros(7), 0.3,
+                                                    jnp.asarray(first), jnp))
+    kept, fresh = renew(0.1, 0.2), renew(duration - 0.01, duration + 0.02)
+    assert not kept[1] and np.array_equal(kept[0], first) and fresh[1] and fresh[0][3] == 0.0
+    once = CpuEnv(STRIKE, character, clip)
+    once.reset_at(duration - 1.5 * once.control_dt, event_seed=0.3)
+    start = once.motion.goal.copy()
+    assert sum(once.step(zero).metrics["task/new_target"] for _ in range(3)) == 0.0
+    assert np.array_equal(once.motion.goal, start)
+
+
+def test_strike_success_is_the_share_of_targets_hit_and_bad_body_is_one_line(character):
+    acc = {"reward/task": np.array([3.0, 1.0]), "task/hit": np.array([2.0, 0.0]), "task/distance": np.ones(2),
+           "task/new_hit": np.array([1.0, 0.0]), "task/new_target": np.zeros(2)}
     out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
     assert out["success_rate"] == 0.5 and out["task_return"] == pytest.approx(0.2)
+    # a new target each cycle: 2 + 6 targets shown, 4 hit
+    acc.update({"task/new_hit": np.array([3.0, 1.0]), "task/new_target": np.array([4.0, 2.0])})
+    out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
+    assert out["success_rate"] == 0.5 and out["targets_per_episode"] == 4.0
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.motion.clip import load_clip_source
 

@@ -101,6 +101,9 @@ class TaskConfig:
     target_min_m: float = 0.5  # strike, throw: the target's horizontal distance from the root at reset,
     target_max_m: float = 1.0  # uniform in [min, max], in any direction (throw: TASK_DEFAULTS)
     target_height_m: float = 1.2  # strike: the target centre's height
+    # strike on a looping clip: a new target (hit flag cleared) around the character at each new
+    # cycle of the clip, so that every kick has a target in reach; False: one per episode
+    target_each_cycle: bool = False
     target_radius_m: float = 0.2  # strike: a hit is the striking body's centre within this radius;
     # throw: the ball lands (its centre first at its radius above the floor) within it
     throw_hand: str = "right_wrist"  # throw: the body that holds the ball

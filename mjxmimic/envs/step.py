@@ -384,7 +384,12 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         metrics.update({"reward/task": r_task, "task/speed_along": along, "task/speed": speed})
     elif task.name == "strike":
         r_task, goal_state, distance = goals.strike(task, sim, spec.task_body, motion.goal, xp)
-        metrics.update({"reward/task": r_task, "task/hit": goal_state[3], "task/distance": distance})
+        hit = goal_state[3]
+        goal_state, new_target = goals.renew_target(task, lib, clip, motion.time, t, qpos, motion.event_seed,
+                                                    goal_state, xp)
+        metrics.update({"reward/task": r_task, "task/hit": hit, "task/distance": distance,
+                        "task/new_hit": hit - motion.goal[3],
+                        "task/new_target": new_target.astype(xp.float32)})
     elif task.name == "throw":
         r_task, goal_state, distance, hit = goals.throw(task, ball_q[:3], ball_v[:3], released(spec, t),
                                                         spec.ball.radius_m, motion.goal, xp)

@@ -18,7 +18,10 @@ strike: hit a target with a body (the right foot for the spinkick). At reset the
     is detected). r_task = 1 once the target has been hit, else exp(-4 d^2), d the distance between
     the two (the form that the paper gives, as we read it; DEEPMIMIC.md states only the 0.7 / 0.3
     mix). Observation: the target relative to the root in the heading frame, and whether it has
-    been hit. The target and the hit flag are the episode's goal state (`Motion.goal`).
+    been hit. The target and the hit flag are the episode's goal state (`Motion.goal`). With
+    `task.target_each_cycle` a looping clip gets a new target, placed the same way around the
+    character, at each new cycle of its clip (a travelling spinkick leaves a fixed target
+    behind); success is then the share of targets shown that were hit.
 
 throw: throw a ball onto a target on the floor (the pitch clip). The ball (mjxmimic.core.scene, a
     free body after the character) is carried by overwriting its position and velocity with the
@@ -54,7 +57,7 @@ from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
 GOAL_SIZE = {"": 0, "heading": 3, "strike": 4, "throw": 11}
 # per-step metrics of each task (summed over an evaluation episode's running steps)
 METRICS = {"": (), "heading": ("reward/task", "task/speed_along", "task/speed"),
-           "strike": ("reward/task", "task/hit", "task/distance"),
+           "strike": ("reward/task", "task/hit", "task/distance", "task/new_hit", "task/new_target"),
            "throw": ("reward/task", "task/hit", "task/distance")}
 PLASTIC = 0.7548776662466927  # 1 / the plastic number: a well-spread additive recurrence
 SPEED_TOLERANCE = 0.15  # a heading episode succeeds when its speed along the goal is within 15 % of v*
@@ -93,11 +96,13 @@ def heading_reward(along: Any, speed: Any, xp: Any) -> Any:
     return xp.exp(-2.5 * xp.maximum(0.0, speed - along) ** 2)
 
 
-def place_target(task: TaskConfig, root_qpos: Any, event_seed: Any, xp: Any) -> Any:
-    """The strike goal state at reset: (target x, y, z, hit = 0), around the root `root_qpos`."""
+def place_target(task: TaskConfig, root_qpos: Any, event_seed: Any, xp: Any, index: Any = 0) -> Any:
+    """The strike goal state (target x, y, z, hit = 0) around the root `root_qpos`: the episode's
+    `index`-th target (0 at reset)."""
     event_seed = xp.asarray(event_seed, xp.float32)
-    angle = 2.0 * xp.pi * ((5.0 * event_seed + PLASTIC) % 1.0)
-    u = (7.0 * event_seed + PLASTIC * PLASTIC) % 1.0
+    n = xp.asarray(index, xp.float32) + 1.0
+    angle = 2.0 * xp.pi * ((5.0 * event_seed + PLASTIC * n) % 1.0)
+    u = (7.0 * event_seed + PLASTIC * PLASTIC * n) % 1.0
     distance = task.target_min_m + (task.target_max_m - task.target_min_m) * u
     return xp.stack([root_qpos[0] + distance * xp.cos(angle), root_qpos[1] + distance * xp.sin(angle),
                      xp.asarray(task.target_height_m, angle.dtype), xp.zeros_like(angle)]).astype(xp.float32)
@@ -109,6 +114,18 @@ def strike(task: TaskConfig, k: Kin, body: int, goal: Any, xp: Any) -> tuple[Any
     hit = (goal[3] > 0) | (distance < task.target_radius_m)
     r_task = xp.where(hit, 1.0, xp.exp(-4.0 * distance**2))
     return r_task, xp.concatenate([goal[:3], hit.astype(goal.dtype)[None]]), distance
+
+
+def renew_target(task: TaskConfig, lib: Any, clip: Any, time_before: Any, time_after: Any, root_qpos: Any,
+                 event_seed: Any, goal: Any, xp: Any) -> tuple[Any, Any]:
+    """(the strike goal state after a step from clip time `time_before` to `time_after`, whether
+    it is a new target): with `task.target_each_cycle`, a looping clip's new cycle places the
+    target anew (its index is the cycle's), else `goal` stays."""
+    if not task.target_each_cycle:
+        return goal, xp.zeros((), bool)
+    cycle = xp.floor(time_after / lib.duration[clip])
+    new = lib.loop[clip] & (cycle > xp.floor(time_before / lib.duration[clip]))
+    return xp.where(new, place_target(task, root_qpos, event_seed, xp, cycle), goal), new
 
 
 def ball_in_hand(k: Kin, hand: int, xp: Any) -> tuple[Any, Any]:
@@ -192,8 +209,9 @@ def metrics_add(acc: dict[str, Any], active: Any, metrics: dict[str, Any], xp: A
 def metrics_summarize(task: str, acc: dict[str, Any], horizon: Any, failed: Any) -> dict[str, float]:
     """Per-episode sums (host arrays) -> the task's return (mean r_task per horizon step, 0 after
     a fall) and success rate. heading: success = no fall and the speed along the goal within
-    SPEED_TOLERANCE of v* (also reported: that speed over v*); strike: the target was hit; throw:
-    the ball landed on the target."""
+    SPEED_TOLERANCE of v* (also reported: that speed over v*); strike: the share of targets shown
+    that were hit (one per episode, or one per cycle with `task.target_each_cycle`; the last target
+    of an episode counts too); throw: the ball landed on the target."""
     import numpy as np
 
     acc = {k: np.asarray(v, np.float64) for k, v in acc.items()}
@@ -202,6 +220,11 @@ def metrics_summarize(task: str, acc: dict[str, Any], horizon: Any, failed: Any)
         ratio = acc["task/speed_along"] / np.maximum(acc["task/speed"], 1e-6)
         ok = ~np.asarray(failed, bool) & (np.abs(ratio - 1.0) <= SPEED_TOLERANCE)
         out["speed_ratio"] = float(ratio.mean())
+    elif task == "strike":
+        targets = len(acc["task/new_target"]) + acc["task/new_target"].sum()
+        out["success_rate"] = float(acc["task/new_hit"].sum() / targets)
+        out["targets_per_episode"] = float(targets / len(acc["task/new_target"]))
+        return out
     else:
         ok = acc["task/hit"] > 0
     out["success_rate"] = float(ok.mean())
