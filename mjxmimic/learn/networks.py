@@ -2,9 +2,9 @@
 (DEEPMIMIC.md: "3 conv layers ... then a 64-unit layer, joined with the state").
 
 The observation of a terrain env ends with the heightmap (mjxmimic.envs.step: rows x cols heights
-in the heading frame). `HeightmapMLP` splits it off, runs it through CONV_LAYERS (`PatchConv`: SAME padding,
-relu), flattens, a dense `encoder` layer of ENCODER_UNITS (relu), concatenates that with the
-state features (everything before the heightmap, normalised) and runs the usual MLP
+in the heading frame). `HeightmapMLP` splits it off, runs it through CONV_LAYERS (`PatchConv`:
+SAME padding, relu), flattens, a dense `encoder` layer of ENCODER_UNITS (relu), concatenates that
+with the state features (everything before the heightmap, normalised) and runs the usual MLP
 (`hidden_0` .. `hidden_L`, relu after all but the last). Layer names are flat (conv_0, conv_1,
 conv_2, encoder, hidden_i), so the portable policy file stores them as it stores an MLP's, and
 mjxmimic.portable.policy_numpy computes the same function without JAX.
