@@ -92,8 +92,11 @@ if [ -d /tmp/bench ]; then
 fi
 [ "${PACK:-}" = none ] && exit 0
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
-  for n in "${names[@]}"; do  # side by side: one after the other, five exports overran a call
-    (python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 || echo "export $n failed") &
+  # side by side (one after the other, five exports overran a call), each taking GPU memory as it
+  # needs it (eleven at the run's memory fraction on one GPU: three failed)
+  for n in "${names[@]}"; do
+    (XLA_PYTHON_CLIENT_PREALLOCATE=false python3 -m mjxmimic.cli export "runs/$n" > /dev/null 2>&1 \
+      || echo "export $n failed") &
   done
   wait
   for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done

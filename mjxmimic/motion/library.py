@@ -223,6 +223,11 @@ def phase(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> Any:
     return xp.where(lib.loop[clip], p - xp.floor(p), xp.clip(p, 0.0, 1.0))
 
 
+def cycle_index(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> Any:
+    """Which cycle of a cyclic clip time `t` falls in (0, 1, ...); 0 for a clip that does not loop."""
+    return xp.where(lib.loop[clip], xp.floor(t / lib.duration[clip]), 0.0)
+
+
 def _frame_index(lib: MotionLib, clip: Any, tau: Any, xp: Any) -> Any:
     """The last clip-local frame starting at or before tau (0 <= tau <= duration), in constant time.
 
@@ -243,8 +248,7 @@ def _frame_index(lib: MotionLib, clip: Any, tau: Any, xp: Any) -> Any:
 def sample(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> tuple[Any, Any]:
     """Reference (qpos, qvel) of `clip` at time `t` (scalars; vmap for batches)."""
     dur = lib.duration[clip]
-    loop = lib.loop[clip]
-    cycle = xp.where(loop, xp.floor(t / dur), 0.0)
+    cycle = cycle_index(lib, clip, t, xp)
     tau = xp.clip(t - cycle * dur, 0.0, dur)
 
     n = lib.clip_frames[clip]
@@ -280,8 +284,7 @@ def sync_root_offset(lib: MotionLib, clip: Any, t_prev: Any, t: Any, offset: Any
     harmless drift over many cycles does not pile up in the root-position error. `ref_xy` is the
     unshifted reference root at t; between cycle starts the offset is kept.
     """
-    dur = lib.duration[clip]
-    new_cycle = lib.loop[clip] & (xp.floor(t / dur) > xp.floor(t_prev / dur))
+    new_cycle = cycle_index(lib, clip, t, xp) > cycle_index(lib, clip, t_prev, xp)
     return xp.where(new_cycle, sim_xy - ref_xy, offset)
 
 

@@ -53,6 +53,7 @@ from typing import Any
 from mjxmimic.core import quat
 from mjxmimic.core.config import TaskConfig
 from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
+from mjxmimic.motion import library as motion_lib
 
 GOAL_SIZE = {"": 0, "heading": 3, "strike": 4, "throw": 11}
 # per-step metrics of each task (summed over an evaluation episode's running steps)
@@ -123,8 +124,8 @@ def renew_target(task: TaskConfig, lib: Any, clip: Any, time_before: Any, time_a
     target anew (its index is the cycle's), else `goal` stays."""
     if not task.target_each_cycle:
         return goal, xp.zeros((), bool)
-    cycle = xp.floor(time_after / lib.duration[clip])
-    new = lib.loop[clip] & (cycle > xp.floor(time_before / lib.duration[clip]))
+    cycle = motion_lib.cycle_index(lib, clip, time_after, xp)
+    new = cycle > motion_lib.cycle_index(lib, clip, time_before, xp)
     return xp.where(new, place_target(task, root_qpos, event_seed, xp, cycle), goal), new
 
 
@@ -220,12 +221,11 @@ def metrics_summarize(task: str, acc: dict[str, Any], horizon: Any, failed: Any)
         ratio = acc["task/speed_along"] / np.maximum(acc["task/speed"], 1e-6)
         ok = ~np.asarray(failed, bool) & (np.abs(ratio - 1.0) <= SPEED_TOLERANCE)
         out["speed_ratio"] = float(ratio.mean())
-    elif task == "strike":
+        out["success_rate"] = float(ok.mean())
+    elif task == "strike":  # the reset's target and one per new cycle
         targets = len(acc["task/new_target"]) + acc["task/new_target"].sum()
         out["success_rate"] = float(acc["task/new_hit"].sum() / targets)
         out["targets_per_episode"] = float(targets / len(acc["task/new_target"]))
-        return out
     else:
-        ok = acc["task/hit"] > 0
-    out["success_rate"] = float(ok.mean())
+        out["success_rate"] = float((acc["task/hit"] > 0).mean())
     return out
