@@ -230,6 +230,9 @@ def test_each_cycle_of_the_clip_brings_a_new_target(character):
                                                     jnp.asarray(first), jnp))
     kept, fresh = renew(0.1, 0.2), renew(duration - 0.01, duration + 0.02)
     assert not kept[1] and np.array_equal(kept[0], first) and fresh[1] and fresh[0][3] == 0.0
+    # the reset's target had only part of cycle 0; the one placed at cycle 1's start had all of it
+    later = renew(2 * duration - 0.01, 2 * duration + 0.02)
+    assert not kept[2] and not fresh[2] and later[1] and later[2]
     once = CpuEnv(STRIKE, character, clip)
     once.reset_at(duration - 1.5 * once.control_dt, event_seed=0.3)
     start = once.motion.goal.copy()
@@ -239,13 +242,17 @@ def test_each_cycle_of_the_clip_brings_a_new_target(character):
 
 def test_strike_success_is_the_share_of_targets_hit_and_bad_body_is_one_line(character):
     acc = {"reward/task": np.array([3.0, 1.0]), "task/hit": np.array([2.0, 0.0]), "task/distance": np.ones(2),
-           "task/new_hit": np.array([1.0, 0.0]), "task/new_target": np.zeros(2)}
+           "task/new_hit": np.array([1.0, 0.0]), "task/new_target": np.zeros(2),
+           "task/whole_cycle_target": np.zeros(2), "task/whole_cycle_hit": np.zeros(2)}
     out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
     assert out["success_rate"] == 0.5 and out["task_return"] == pytest.approx(0.2)
-    # a new target each cycle: 2 + 6 targets shown, 4 hit
-    acc.update({"task/new_hit": np.array([3.0, 1.0]), "task/new_target": np.array([4.0, 2.0])})
+    assert "whole_cycle_success_rate" not in out
+    # a new target each cycle: 2 + 6 targets shown, 4 hit; of the 4 shown for a whole cycle, 3 hit
+    acc.update({"task/new_hit": np.array([3.0, 1.0]), "task/new_target": np.array([4.0, 2.0]),
+                "task/whole_cycle_target": np.array([3.0, 1.0]), "task/whole_cycle_hit": np.array([2.0, 1.0])})
     out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
     assert out["success_rate"] == 0.5 and out["targets_per_episode"] == 4.0
+    assert out["whole_cycle_success_rate"] == 0.75
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.motion.clip import load_clip_source
 

@@ -385,11 +385,13 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     elif task.name == "strike":
         r_task, goal_state, distance = goals.strike(task, sim, spec.task_body, motion.goal, xp)
         hit = goal_state[3]
-        goal_state, new_target = goals.renew_target(task, lib, clip, motion.time, t, qpos, motion.event_seed,
-                                                    goal_state, xp)
+        goal_state, new_target, whole = goals.renew_target(task, lib, clip, motion.time, t, qpos, motion.event_seed,
+                                                           goal_state, xp)
         metrics.update({"reward/task": r_task, "task/hit": hit, "task/distance": distance,
                         "task/new_hit": hit - motion.goal[3],
-                        "task/new_target": new_target.astype(xp.float32)})
+                        "task/new_target": new_target.astype(xp.float32),
+                        "task/whole_cycle_target": whole.astype(xp.float32),
+                        "task/whole_cycle_hit": xp.where(whole, hit, 0.0).astype(xp.float32)})
     elif task.name == "throw":
         r_task, goal_state, distance, hit = goals.throw(task, ball_q[:3], ball_v[:3], released(spec, t),
                                                         spec.ball.radius_m, motion.goal, xp)

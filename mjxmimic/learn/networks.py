@@ -9,9 +9,9 @@ with the state features (everything before the heightmap, normalised) and runs t
 conv_2, encoder, hidden_i), so the portable policy file stores them as it stores an MLP's, and
 mjxmimic.portable.policy_numpy computes the same function without JAX.
 
-The paper's first two layers are 16 8x8 and 32 4x4 filters on a heightmap of unknown size; on
-the 16 x 16 default grid here the strides and sizes below keep a 4 x 4 x 32 map before the dense
-layer (8x8 filters would cover half the grid).
+The paper's first two layers are 16 8x8 and 32 4x4 filters on a heightmap of unknown size; the
+strides and sizes below keep a 2 x 2 x 32 map before the dense layer on the 8 x 8 default grid
+(4 x 4 x 32 on a 16 x 16 one); 8x8 filters would cover the whole default grid.
 """
 
 from __future__ import annotations

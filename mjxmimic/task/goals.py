@@ -58,7 +58,8 @@ from mjxmimic.motion import library as motion_lib
 GOAL_SIZE = {"": 0, "heading": 3, "strike": 4, "throw": 11}
 # per-step metrics of each task (summed over an evaluation episode's running steps)
 METRICS = {"": (), "heading": ("reward/task", "task/speed_along", "task/speed"),
-           "strike": ("reward/task", "task/hit", "task/distance", "task/new_hit", "task/new_target"),
+           "strike": ("reward/task", "task/hit", "task/distance", "task/new_hit", "task/new_target",
+                      "task/whole_cycle_target", "task/whole_cycle_hit"),
            "throw": ("reward/task", "task/hit", "task/distance")}
 PLASTIC = 0.7548776662466927  # 1 / the plastic number: a well-spread additive recurrence
 SPEED_TOLERANCE = 0.15  # a heading episode succeeds when its speed along the goal is within 15 % of v*
@@ -118,15 +119,19 @@ def strike(task: TaskConfig, k: Kin, body: int, goal: Any, xp: Any) -> tuple[Any
 
 
 def renew_target(task: TaskConfig, lib: Any, clip: Any, time_before: Any, time_after: Any, root_qpos: Any,
-                 event_seed: Any, goal: Any, xp: Any) -> tuple[Any, Any]:
+                 event_seed: Any, goal: Any, xp: Any) -> tuple[Any, Any, Any]:
     """(the strike goal state after a step from clip time `time_before` to `time_after`, whether
-    it is a new target): with `task.target_each_cycle`, a looping clip's new cycle places the
-    target anew (its index is the cycle's), else `goal` stays."""
+    it is a new target, whether the target it replaces had a whole cycle): with
+    `task.target_each_cycle`, a looping clip's new cycle places the target anew (its index is the
+    cycle's), else `goal` stays. An episode starts in cycle 0 (RSI draws a time within the clip),
+    so the targets placed at later cycles' starts are the ones shown for a whole kick."""
     if not task.target_each_cycle:
-        return goal, xp.zeros((), bool)
+        no = xp.zeros((), bool)
+        return goal, no, no
+    cycle_before = motion_lib.cycle_index(lib, clip, time_before, xp)
     cycle = motion_lib.cycle_index(lib, clip, time_after, xp)
-    new = cycle > motion_lib.cycle_index(lib, clip, time_before, xp)
-    return xp.where(new, place_target(task, root_qpos, event_seed, xp, cycle), goal), new
+    new = cycle > cycle_before
+    return xp.where(new, place_target(task, root_qpos, event_seed, xp, cycle), goal), new, new & (cycle_before >= 1)
 
 
 def ball_in_hand(k: Kin, hand: int, xp: Any) -> tuple[Any, Any]:
@@ -212,7 +217,8 @@ def metrics_summarize(task: str, acc: dict[str, Any], horizon: Any, failed: Any)
     a fall) and success rate. heading: success = no fall and the speed along the goal within
     SPEED_TOLERANCE of v* (also reported: that speed over v*); strike: the share of targets shown
     that were hit (one per episode, or one per cycle with `task.target_each_cycle`; the last target
-    of an episode counts too); throw: the ball landed on the target."""
+    of an episode counts too), and with a target per cycle also the share hit of those shown for
+    a whole cycle (`whole_cycle_success_rate`); throw: the ball landed on the target."""
     import numpy as np
 
     acc = {k: np.asarray(v, np.float64) for k, v in acc.items()}
@@ -226,6 +232,9 @@ def metrics_summarize(task: str, acc: dict[str, Any], horizon: Any, failed: Any)
         targets = len(acc["task/new_target"]) + acc["task/new_target"].sum()
         out["success_rate"] = float(acc["task/new_hit"].sum() / targets)
         out["targets_per_episode"] = float(targets / len(acc["task/new_target"]))
+        whole = acc["task/whole_cycle_target"].sum()
+        if whole > 0:  # the first and the last target of an episode may get only part of a kick
+            out["whole_cycle_success_rate"] = float(acc["task/whole_cycle_hit"].sum() / whole)
     else:
         out["success_rate"] = float((acc["task/hit"] > 0).mean())
     return out
