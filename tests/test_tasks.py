@@ -243,13 +243,13 @@ def test_each_cycle_of_the_clip_brings_a_new_target(character):
 def test_strike_success_is_the_share_of_targets_hit_and_bad_body_is_one_line(character):
     acc = {"reward/task": np.array([3.0, 1.0]), "task/hit": np.array([2.0, 0.0]), "task/distance": np.ones(2),
            "task/new_hit": np.array([1.0, 0.0]), "task/new_target": np.zeros(2),
-           "task/whole_cycle_target": np.zeros(2), "task/whole_cycle_hit": np.zeros(2)}
+           "task/whole_cycle_hit": np.zeros(2)}
     out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
     assert out["success_rate"] == 0.5 and out["task_return"] == pytest.approx(0.2)
     assert "whole_cycle_success_rate" not in out
     # a new target each cycle: 2 + 6 targets shown, 4 hit; of the 4 shown for a whole cycle, 3 hit
     acc.update({"task/new_hit": np.array([3.0, 1.0]), "task/new_target": np.array([4.0, 2.0]),
-                "task/whole_cycle_target": np.array([3.0, 1.0]), "task/whole_cycle_hit": np.array([2.0, 1.0])})
+                "task/whole_cycle_hit": np.array([2.0, 1.0])})
     out = goals.metrics_summarize("strike", acc, np.array([10, 10]), np.array([False, True]))
     assert out["success_rate"] == 0.5 and out["targets_per_episode"] == 4.0
     assert out["whole_cycle_success_rate"] == 0.75

@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 
 from mjxmimic.portable import composite as C
-from mjxmimic.task import push_protocol
 from mjxmimic.task import recovery as protocol
 
 path, seed, trials = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
@@ -25,41 +24,28 @@ dt = player.env.control_dt
 n = protocol.steps(dt)
 long = n._replace(recover=round(12 / dt), total=n.lead + n.down_within + round(12 / dt))
 dur = float(player.env.clip_durations[first])
+stand = player.gate.stand_height
 out = []
-knocked = 0
 i = 0
-while knocked < trials:
+while len(out) < trials:
     tr = protocol.draw_trials(seed, i, 1, dur, "random", n.total)
     u = np.concatenate([tr.u[0], np.random.default_rng(1000 + i).random(long.total)])
-    env, gate = player.env, player.gate
-    player.reset(float(tr.start_time[0]), first)
-    st = protocol.start((), np)
     rows = []
-    for k in range(long.total):
-        active = float(n.lead <= k < n.lead + n.push)
-        force = push_protocol.wrench(env.data.qpos, 1000.0, float(tr.turn[0]), active, env.model.nbody, np)
-        loc = bool(gate.loop[env.motion.clip])
-        s, d = player.step(u[k], force)
-        st = protocol.update(st, k, d.root_height, loc, d.pose_error, gate.stand_height, long, np)
-        rows.append((k, int(d.choice), float(d.root_height), loc, float(d.pose_error)))
-        if st.up_at_push == 0 or (st.down_step < 0 and k >= n.lead + n.down_within) or st.recovered_step >= 0:
-            break
+    st, _ = C.recovery_trial(player, float(tr.start_time[0]), first, 1000.0, float(tr.turn[0]), u, long,
+                             lambda k, d: rows.append((int(d.choice), float(d.root_height), float(d.pose_error))))
     i += 1
     down = int(st.down_step)
     if down < 0:
         continue
-    knocked += 1
-    h = np.array([r[2] for r in rows])
-    up = h >= protocol.UP_FRACTION * gate.stand_height
-    low = h < protocol.DOWN_FRACTION * gate.stand_height
-    ks = np.arange(len(rows))
-    first_up = next((int(k) for k in ks if k > down and up[k]), -1)
-    refall = first_up >= 0 and bool(np.any(low[first_up:]))
+    h = np.array([r[1] for r in rows])
+    up, low = h >= protocol.UP_FRACTION * stand, h < protocol.DOWN_FRACTION * stand
+    first_up = next((k for k in range(down + 1, len(rows)) if up[k]), -1)
     rec = int(st.recovered_step)
     out.append({"trial": i - 1, "down_s": down * dt, "first_up_s": (first_up - down) * dt if first_up >= 0 else None,
-                "refall": refall, "recovered_s": (rec - down) * dt if rec >= 0 else None,
-                "choices": "".join("WDU"[r[1]] for r in rows[down::3]),
-                "err_at_end": rows[-1][4], "h_end": rows[-1][2]})
+                "refall": first_up >= 0 and bool(np.any(low[first_up:])),
+                "recovered_s": (rec - down) * dt if rec >= 0 else None,
+                "choices": "".join("WDU"[r[0]] for r in rows[down::3]),
+                "err_at_end": rows[-1][2], "h_end": rows[-1][1]})
     print(json.dumps(out[-1]), flush=True)
 r = [o["recovered_s"] for o in out]
 print("within 5 s", sum(x is not None and x <= 5 for x in r), "within 12 s", sum(x is not None for x in r),

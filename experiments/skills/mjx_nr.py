@@ -9,9 +9,6 @@ import json
 import sys
 from pathlib import Path
 
-import jax
-import numpy as np
-
 from mjxmimic.core import config as config_lib
 from mjxmimic.envs.mjx_env import make_env
 from mjxmimic.learn.ppo import make_networks, make_policy_fn
@@ -23,9 +20,8 @@ pf = policy_file.read(path)
 config = pf.config()
 config = config_lib.apply_overrides(config, {"physics.backend": "jax"})
 env = make_env(config_lib.evaluation_config(config))
-params = jax.tree_util.tree_map(np.asarray, pf.params)
 nets = make_networks(env.observation_size, env.action_size, config)
-policy = make_policy_fn(nets, params, deterministic=True)
+policy = make_policy_fn(nets, pf.params, deterministic=True)
 seed = config.run.seed + 1
 res = evaluate(env, policy, config, seed, episodes=n)
 print(json.dumps({k: v for k, v in res.items() if not isinstance(v, (list, dict))}))

@@ -390,7 +390,6 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         metrics.update({"reward/task": r_task, "task/hit": hit, "task/distance": distance,
                         "task/new_hit": hit - motion.goal[3],
                         "task/new_target": new_target.astype(xp.float32),
-                        "task/whole_cycle_target": whole.astype(xp.float32),
                         "task/whole_cycle_hit": xp.where(whole, hit, 0.0).astype(xp.float32)})
     elif task.name == "throw":
         r_task, goal_state, distance, hit = goals.throw(task, ball_q[:3], ball_v[:3], released(spec, t),

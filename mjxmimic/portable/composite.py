@@ -324,9 +324,11 @@ def clip_nr(c: Composite, episodes: int = 8, seed: int = 0, temperature: float |
 
 
 def recovery_trial(player: Player, t0: float, expert: int, force_n: float, turn: float, u: np.ndarray,
-                   n: protocol.Steps) -> tuple[protocol.State, np.ndarray]:
+                   n: protocol.Steps, on_step: Callable[[int, gate_lib.Decision], Any] | None = None,
+                   ) -> tuple[protocol.State, np.ndarray]:
     """One knock-down trial on the CPU (mjxmimic.task.recovery): its final rule state and the steps
-    each expert ran. Stops early once the outcome is known."""
+    each expert ran. Stops early once the outcome is known. `on_step(k, decision)` sees every step
+    (a trace)."""
     env, gate = player.env, player.gate
     player.reset(t0, expert)
     state = protocol.start((), np)
@@ -338,6 +340,8 @@ def recovery_trial(player: Player, t0: float, expert: int, force_n: float, turn:
         s, d = player.step(u[k], force)
         state = protocol.update(state, k, d.root_height, locomotion, d.pose_error, gate.stand_height, n, np)
         counts[int(d.choice)] += 1
+        if on_step is not None:
+            on_step(k, d)
         if s.failed or state.recovered_step >= 0 or state.up_at_push == 0:
             break
         if state.down_step < 0 and k >= n.lead + n.down_within:
