@@ -31,6 +31,8 @@ RANDOMISED = {"env.friction_range": "0.3,0.6", "env.mass_range": "0.5,2.0"}
     ("env.mass_range", "1.1", "env.mass_range", "two factors"),
     ("env.mass_range", "heavy", "env.mass_range", "not a valid tuple"),
     ("env.reset_noise_rad", -0.1, "env.reset_noise_rad", "must be >= 0"),
+    ("env.reset_velocity_range", "0.5,0.2", "env.reset_velocity_range", "0 <= lo <= hi"),
+    ("env.reset_velocity_range", "-0.1,1", "env.reset_velocity_range", "0 <= lo <= hi"),
 ])
 def test_new_keys_are_checked_in_one_line(key, value, named, message):
     with pytest.raises(UserError, match=f"'{named}'.*{message}"):
@@ -271,3 +273,30 @@ def test_reset_noise_turns_every_joint_within_its_bound_alike_on_numpy_and_jax(c
     turn = np.array([quat.angle_between(a, b, np) for a, b in zip(q[layout.q_quat[1:]], ref_q[layout.q_quat[1:]])])
     assert turn.max() <= np.sqrt(3) * noise + 1e-5 and turn.min() > 0.01
     assert np.abs(step.start_state(spec_np, 0, t, np.float32(0.61), np)[0] - q).max() > 0.05
+
+
+def test_reset_velocity_range_scales_the_start_velocities_by_one_factor_alike_on_numpy_and_jax(character):
+    """env.reset_velocity_range: the RSI velocities, root and joints, times one factor in the range
+    drawn from the event seed (the same on numpy and JAX), the pose untouched; other seeds draw
+    other factors; evaluation drops it."""
+    from mjxmimic.core.config import evaluation_config
+    from mjxmimic.envs import step
+    from mjxmimic.motion.clip import load_clip_source
+
+    clip, t = load_clip_source("slow_walk", character), np.float32(0.4)
+    slowed = make_config("cpu", {"env.reset_velocity_range": "0.2,0.6"})
+    spec_np = step.build(slowed, character, [clip], np)[1]
+    spec_jax = step.build(slowed, character, [clip], jnp)[1]
+    plain = step.build(make_config("cpu"), character, [clip], np)[1]
+    ref_q, ref_v = step.start_state(plain, 0, t, np.float32(0.37), np)
+    factors = []
+    for seed in (0.37, 0.61, 0.05, 0.93):
+        q, v = step.start_state(spec_np, 0, t, np.float32(seed), np)
+        v_jax = np.asarray(step.start_state(spec_jax, 0, jnp.float32(t), jnp.float32(seed), jnp)[1])
+        np.testing.assert_array_equal(q, ref_q)
+        np.testing.assert_allclose(v_jax, v, rtol=1e-6, atol=1e-7)
+        factor = v[np.abs(ref_v).argmax()] / ref_v[np.abs(ref_v).argmax()]
+        np.testing.assert_allclose(v, factor * ref_v, rtol=1e-5, atol=1e-6)
+        factors.append(factor)
+    assert min(factors) >= 0.2 - 1e-6 and max(factors) <= 0.6 + 1e-6 and max(factors) - min(factors) > 0.05
+    assert evaluation_config(slowed).env.reset_velocity_range == (1.0, 1.0)

@@ -66,6 +66,10 @@ class EnvConfig:
     # many radians (uniform per hinge angle and per component of a ball joint's rotation vector),
     # so that the policy meets states off its clip (a getup: the poses a push leaves); training only
     reset_noise_rad: float = 0.0
+    # (lo, hi): each episode's RSI velocities (root and joints) scaled by one factor uniform in
+    # [lo, hi], so that a policy also starts from slower or still states (a walk handed a standing
+    # character by a getup, issue 14); (1, 1) = off; training only
+    reset_velocity_range: tuple[float, ...] = (1.0, 1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -330,7 +334,7 @@ def evaluation_config(config: Config) -> Config:
     run's settings without what only perturbs training (episode events such as pushes, domain
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
     return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
-                                    "env.reset_noise_rad": 0.0})
+                                    "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0)})
 
 
 def _scale_range_ok(factors: tuple[float, ...]) -> bool:
@@ -358,6 +362,8 @@ def validate(config: Config) -> None:
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
+        (len(env.reset_velocity_range) == 2 and 0 <= env.reset_velocity_range[0] <= env.reset_velocity_range[1] < float("inf"),
+         "env.reset_velocity_range", "must be two factors lo,hi with 0 <= lo <= hi (finite)"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),

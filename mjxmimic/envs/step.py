@@ -245,12 +245,17 @@ def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tupl
     qpos, qvel = motion_lib.sample(spec.lib, clip, t, xp)
     if spec.config.env.reset_noise_rad > 0:
         qpos = perturbed_pose(spec, qpos, event_seed, xp)
+    lo, hi = spec.config.env.reset_velocity_range
+    if (lo, hi) != (1.0, 1.0):
+        u = randomise.uniform(event_seed, 1, xp, first=RESET_VELOCITY_DRAW)[0]
+        qvel = qvel * (lo + (hi - lo) * u).astype(qvel.dtype)
     if spec.terrain is not None:
         qpos, qvel = terrain_lib.start_pose(spec.terrain, qpos, qvel, event_seed, xp)
     return qpos, qvel
 
 
 RESET_NOISE_DRAWS = 1 << 20  # where the reset noise's draws start in the event seed's stream (randomise.uniform)
+RESET_VELOCITY_DRAW = (1 << 20) - 1  # the reset velocity factor's draw, before the noise's
 
 
 def perturbed_pose(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
