@@ -337,8 +337,11 @@ def evaluation_config(config: Config) -> Config:
                                     "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0)})
 
 
-def _scale_range_ok(factors: tuple[float, ...]) -> bool:
-    return len(factors) == 2 and 0 < factors[0] <= factors[1] < float("inf")
+def _scale_range_ok(factors: tuple[float, ...], zero_ok: bool = False) -> bool:
+    if len(factors) != 2:
+        return False
+    lo, hi = factors
+    return (lo >= 0 if zero_ok else lo > 0) and lo <= hi < float("inf")
 
 
 def validate(config: Config) -> None:
@@ -362,8 +365,8 @@ def validate(config: Config) -> None:
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
-        (len(env.reset_velocity_range) == 2 and 0 <= env.reset_velocity_range[0] <= env.reset_velocity_range[1] < float("inf"),
-         "env.reset_velocity_range", "must be two factors lo,hi with 0 <= lo <= hi (finite)"),
+        (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
+         "must be two factors lo,hi with 0 <= lo <= hi (finite)"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),
