@@ -177,6 +177,16 @@ def _template(config):
     return make_trainer(StandInEnv(), config).init(0)
 
 
+def test_resuming_a_finished_run_evaluates_nothing_again(tmp_path):
+    run_dir = tmp_path / "run"
+    first = train(_standin_config(), run_dir, env=StandInEnv(), progress=False)
+    rows = (run_dir / "metrics.jsonl").read_text()
+    again = train(_standin_config(), run_dir, resume=True, env=StandInEnv(), progress=False)
+    assert (again.reason, again.env_steps, again.iterations) == ("done", 5120, 10)
+    assert again.final_eval["nr"] == first.final_eval["nr"]
+    assert (run_dir / "metrics.jsonl").read_text() == rows  # no second evaluation row
+
+
 def test_max_seconds_stops_with_a_checkpoint_then_resume_finishes(tmp_path):
     import time
 

@@ -130,8 +130,24 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
     with folder.writer_lock(run_dir):
         if not resume and folder.holds_run(run_dir):
             raise UserError(f"{run_dir}: already holds a run (continue it with --resume)")
+        if resume and (done := _finished(run_dir, config)) is not None:
+            return done
         return _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
                       progress=progress, on_iteration=on_iteration, deadline=deadline)
+
+
+def _finished(run_dir: Path, config: config_lib.Config) -> Outcome | None:
+    """The outcome of a run that already trained its run.total_samples and wrote its final
+    evaluation: resuming it builds, compiles and evaluates nothing (an evaluation again would only
+    append a second row for the same samples)."""
+    from mjxmimic.runs import checkpoint
+
+    final = folder.read_eval(run_dir)
+    steps = checkpoint.latest_checkpoint(run_dir)
+    if final is None or steps is None or steps < config.run.total_samples or final.get("samples") != steps:
+        return None
+    return Outcome(exit_code=0, reason="done", env_steps=steps, iterations=int(final.get("iterations", 0)),
+                   summary=dict(final), final_eval=dict(final))
 
 
 def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_factory: Callable | None,
