@@ -70,6 +70,12 @@ class EnvConfig:
     # [lo, hi], so that a policy also starts from slower or still states (a walk handed a standing
     # character by a getup, issue 14); (1, 1) = off; training only
     reset_velocity_range: tuple[float, ...] = (1.0, 1.0)
+    # start_states_fraction of the training episodes start instead from a state of the file
+    # start_states (.npz: qpos (N, nq), qvel (N, nv) of the character, e.g. bodies knocked down:
+    # experiments/composite/knockdown_states.py), at the clip time whose reference pose is nearest,
+    # turned and moved onto that reference (mjxmimic.envs.start_bank); training only
+    start_states: str = ""
+    start_states_fraction: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -334,7 +340,8 @@ def evaluation_config(config: Config) -> Config:
     run's settings without what only perturbs training (episode events such as pushes, domain
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
     return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
-                                    "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0)})
+                                    "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0),
+                                    "env.start_states_fraction": 0.0})
 
 
 def _scale_range_ok(factors: tuple[float, ...], zero_ok: bool = False) -> bool:
@@ -367,6 +374,9 @@ def validate(config: Config) -> None:
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
          "must be two factors lo,hi with 0 <= lo <= hi (finite)"),
+        (0 <= env.start_states_fraction <= 1, "env.start_states_fraction", "must be in [0, 1]"),
+        (env.start_states_fraction == 0 or env.start_states != "", "env.start_states_fraction",
+         "needs env.start_states (a .npz of qpos and qvel)"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),

@@ -76,29 +76,37 @@ def pose_features(k: Kin, xp: Any) -> Any:
     return xp.concatenate([xp.reshape(parts[:3], (-1,)), VELOCITY_WEIGHT * xp.reshape(parts[3], (-1,))])
 
 
-def make_gate(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin], temperature: float) -> Gate:
-    """The gate's constants (numpy) for the experts of `spec.lib`; `kinematics` a numpy one (the
-    CPU physics'). Convert with `to_xp` for MJX."""
+def pose_grid(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin]) -> tuple[Any, Any, Any, Any]:
+    """Each clip's reference on a grid of control-step times (numpy; `kinematics` a numpy one):
+    (times (C, G), valid (C, G), pose features (C, G, D), root heights (C, G))."""
     lib, dt = spec.lib, spec.control_dt
     count = len(lib.duration)
     grids = [np.arange(max(1, int(np.ceil(float(lib.duration[e]) / dt - 1e-6)))) * dt for e in range(count)]
     g = max(len(x) for x in grids)
     times = np.zeros((count, g), np.float32)
     valid = np.zeros((count, g), bool)
-    feats, heights = None, []
+    heights = np.zeros((count, g), np.float32)
+    feats = None
     for e, grid in enumerate(grids):
         for i, t in enumerate(grid):
             k = kinematics(*motion_lib.sample(lib, e, np.float32(t), np))
             f = np.asarray(pose_features(k, np), np.float32)
             if feats is None:
                 feats = np.zeros((count, g, f.shape[0]), np.float32)
-            times[e, i], valid[e, i], feats[e, i] = t, True, f
-            if bool(lib.loop[e]):
-                heights.append(float(k.xipos[ROOT_BODY, 2]))
-    if not heights:
+            times[e, i], valid[e, i], feats[e, i], heights[e, i] = t, True, f, k.xipos[ROOT_BODY, 2]
+    return times, valid, feats, heights
+
+
+def make_gate(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin], temperature: float) -> Gate:
+    """The gate's constants (numpy) for the experts of `spec.lib`; `kinematics` a numpy one (the
+    CPU physics'). Convert with `to_xp` for MJX."""
+    times, valid, feats, heights = pose_grid(spec, kinematics)
+    loop = np.asarray(spec.lib.loop, bool)
+    standing = heights[loop[:, None] & valid]
+    if standing.size == 0:
         raise ValueError("a composite needs at least one looping (locomotion) expert")
-    return Gate(loop=np.asarray(lib.loop, bool), entry_times=times, entry_features=feats, entry_valid=valid,
-                temperature=float(temperature), stand_height=float(np.mean(heights)))
+    return Gate(loop=loop, entry_times=times, entry_features=feats, entry_valid=valid,
+                temperature=float(temperature), stand_height=float(np.mean(standing)))
 
 
 def to_xp(gate: Gate, xp: Any) -> Gate:

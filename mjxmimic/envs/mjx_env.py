@@ -39,6 +39,11 @@ class ImitationEnv(Env):
         self.character = character
         self.clips = clips
         self.scene, self.spec = step_lib.build(config, character, clips, jnp, weights)
+        if env.start_states_fraction > 0:
+            from mjxmimic.envs import start_bank
+
+            self.spec = self.spec._replace(start_bank=start_bank.build(config, character, self.scene, clips,
+                                                                       weights, jnp))
         self.model = self.scene.model
         self.backend_name = resolve_backend(config.physics.backend)
         worlds = max_worlds or max(config.ppo.num_envs, config.run.eval_episodes)

@@ -67,6 +67,16 @@ class Spec(NamedTuple):
     terrain: Any = None  # mjxmimic.core.terrain.Terrain, its boxes in xp; None on the flat floor
     heightmap_offsets: Any = None  # (rows * cols, 2) the heightmap's grid in the heading frame
     ball: Ball | None = None  # the throw task's ball: its state follows the character's in qpos and qvel
+    start_bank: StartBank | None = None  # env.start_states, matched to the clips (mjxmimic.envs.start_bank)
+
+
+class StartBank(NamedTuple):
+    """States that training episodes may start from, each at its clip and time (arrays in xp)."""
+
+    qpos: Any  # (N, nq)
+    qvel: Any  # (N, nv)
+    clip: Any  # (N,) int32
+    time: Any  # (N,) float32
 
 
 class Result(NamedTuple):
@@ -231,7 +241,10 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     xp = physics.xp
     t = xp.asarray(t, dtype=xp.float32)
     event_seed = xp.asarray(event_seed, xp.float32)
-    qpos, qvel = with_ball(spec, physics, *start_state(spec, clip, t, event_seed, xp))
+    qpos, qvel = start_state(spec, clip, t, event_seed, xp)
+    if spec.start_bank is not None:
+        clip, t, qpos, qvel = from_bank(spec, clip, t, qpos, qvel, event_seed, xp)
+    qpos, qvel = with_ball(spec, physics, qpos, qvel)
     state = physics.init(qpos, qvel)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
                     event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp))
@@ -256,6 +269,18 @@ def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tupl
 
 RESET_NOISE_DRAWS = 1 << 20  # where the reset noise's draws start in the event seed's stream (randomise.uniform)
 RESET_VELOCITY_DRAW = (1 << 20) - 1  # the reset velocity factor's draw, before the noise's
+START_BANK_DRAWS = (1 << 20) - 3  # whether, and which, start state of the bank: two draws before that
+
+
+def from_bank(spec: Spec, clip: Any, t: Any, qpos: Any, qvel: Any, event_seed: Any, xp: Any) -> tuple[Any, ...]:
+    """(clip, t, qpos, qvel): a state of env.start_states in env.start_states_fraction of the
+    episodes (by the event seed), else the RSI state given."""
+    bank = spec.start_bank
+    u = randomise.uniform(event_seed, 2, xp, first=START_BANK_DRAWS)
+    use = u[0] < spec.config.env.start_states_fraction
+    i = xp.minimum((u[1] * bank.time.shape[0]).astype(xp.int32), bank.time.shape[0] - 1)
+    return (xp.where(use, bank.clip[i], clip).astype(xp.int32), xp.where(use, bank.time[i], t).astype(xp.float32),
+            xp.where(use, bank.qpos[i], qpos).astype(qpos.dtype), xp.where(use, bank.qvel[i], qvel).astype(qvel.dtype))
 
 
 def perturbed_pose(spec: Spec, qpos: Any, event_seed: Any, xp: Any) -> Any:
