@@ -1,0 +1,44 @@
+"""Which throws miss: a throw policy's episodes on MuJoCo C (`mjxmimic play POLICY --episodes N`'s
+starts and goals), their success by start time, by the target's bearing from the character's
+heading at the start, and by its distance.
+
+    python experiments/tasks/throw_outcomes.py runs/NAME/policy.npz N
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from mjxmimic.core.config import evaluation_config
+from mjxmimic.envs.cpu_env import CpuEnv
+from mjxmimic.runs.folder import load_policy_file
+from mjxmimic.task import goals
+
+pf = load_policy_file(Path(sys.argv[1]))
+env = CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips()[0])
+policy = pf.policy()
+starts = pf.manifest["training"]["eval"]["start_times"][: int(sys.argv[2])]
+t0s, bearings, distances, hits = [], [], [], []
+for i, t0 in enumerate(starts):
+    first = {}
+
+    def on_step(e, s):
+        if not first:
+            w, x, y, z = e.data.qpos[3:7]
+            yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+            g = e.motion.goal
+            first["bearing"] = np.arctan2(g[1] - e.data.qpos[1], g[0] - e.data.qpos[0]) - yaw
+            first["distance"] = float(np.hypot(g[0] - e.data.qpos[0], g[1] - e.data.qpos[1]))
+
+    episode = env.episode(policy, float(t0), on_step=on_step, event_seed=(i * goals.PLASTIC) % 1.0)
+    t0s.append(t0)
+    bearings.append(abs(np.degrees((first["bearing"] + np.pi) % (2 * np.pi) - np.pi)))
+    distances.append(first["distance"])
+    hits.append(episode["task"]["task/hit"] > 0)
+t0s, bearings, distances, hits = map(np.array, (t0s, bearings, distances, hits))
+print(f"{hits.mean():.0%} of {len(hits)} episodes hit; target distance {distances.min():.2f} to {distances.max():.2f} m")
+for name, x, edges in (("start time (s)", t0s, (0, 0.4, 0.8, 1.2)), ("bearing (deg)", bearings, (0, 45, 90, 135, 181)),
+                       ("distance (m)", distances, np.quantile(distances, [0, 1 / 3, 2 / 3, 1]) + [0, 0, 0, 1e-6])):
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        m = (x >= lo) & (x < hi)
+        print(f"  {name} {lo:.2f} to {hi:.2f}: {hits[m].mean():.0%} of {m.sum()}")
