@@ -4,9 +4,10 @@
 #   bash experiments/calls_s7_x4.sh 1 SECONDS   # getups that also start still (issue 14): the
 #       # face-down one (seeds 0 and 1, and with reset noise) to 150 M, the face-up one with the
 #       # composite's push settings; a walk expert of another seed
-#   bash experiments/calls_s7_x4.sh 2 SECONDS   # those finished; the strike with equal imitation and
-#       # task weights (issue 15), the G1 run with 200 M (issue 18), more composite experts
+#   bash experiments/calls_s7_x4.sh 2 SECONDS   # the strike with equal imitation and task weights
+#       # (issue 15), the G1 run with 200 M (issue 18), more composite experts
 #   bash experiments/calls_s7_x4.sh 3 SECONDS   # those resumed; every policy brought back
+# Run as: 1 550, 2 548, 3 455.
 # The G1's MJCF travels in .g1/ (carried) and its retargeted run in .clips/g1_run.txt
 # (`mjxmimic clips retarget run --to g1 --out .clips/g1_run.txt`).
 set -u
@@ -28,9 +29,8 @@ later=("strike_w05|$strike"
        "gfd_still_push|$gfd $push")
 case $1 in
   1) PACK=none bash experiments/device_train.sh "$2" "${lanes[@]}" ;;
-  2) PACK=none bash experiments/device_train.sh "$2" "${lanes[0]};${later[0]}" "${lanes[1]};${later[1]}" \
-       "${lanes[2]};${later[2]}" "${lanes[3]};${later[3]}" ;;
-  3) for n in gfd_still gfd_still_s1 gfd_still_noise gfu_still walk_wsn_s1; do  # finished in call 2
+  2) PACK=none bash experiments/device_train.sh "$2" "${later[@]}" ;;  # call 1's runs had all finished
+  3) for n in gfd_still gfd_still_s1 gfd_still_noise gfu_still walk_wsn_s1; do  # finished in call 1
        (XLA_PYTHON_CLIENT_PREALLOCATE=false python3 -m mjxmimic.cli export "runs/$n" >/dev/null 2>&1 \
          || echo "export $n failed") &
      done
