@@ -11,32 +11,25 @@ from pathlib import Path
 
 import numpy as np
 
+from knockdowns import traced
+from mjxmimic.core import quat
 from mjxmimic.portable import composite as C
-from mjxmimic.task import recovery as protocol
 
 path, seed, trials = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 expert = int(sys.argv[4]) if len(sys.argv) > 4 else 1
 c = C.read(Path(path))
 player = C.Player(c)
-first = c.start_expert(None)
 dt = player.env.control_dt
-n = protocol.steps(dt)
 duration = float(player.env.clip_durations[expert])
 ends, again, entries, failed = [], 0, [], 0
-i = done = 0
-while done < trials:
-    tr = protocol.draw_trials(seed, i, 1, float(player.env.clip_durations[first]), "random", n.total)
-    rows = []
 
-    def on_step(k, d):
-        w, x, y, z = player.env.data.qpos[3:7]
-        rows.append((int(d.choice), float(d.root_height), float(d.times[expert]), 2 * (x * z - w * y)))
 
-    st, _ = C.recovery_trial(player, float(tr.start_time[0]), first, 1000.0, float(tr.turn[0]), tr.u[0], n, on_step)
-    i += 1
-    if st.down_step < 0:
-        continue
-    done += 1
+def record(d):
+    forward = quat.rotate(player.env.data.qpos[3:7], np.array([1.0, 0.0, 0.0]), np)
+    return int(d.choice), float(d.root_height), float(d.times[expert]), forward[2]
+
+
+for trial, st, rows in traced(player, seed, trials, record):
     choice = np.array([r[0] for r in rows])
     for k in range(st.down_step, len(rows)):
         if choice[k] == expert and (k == 0 or choice[k - 1] != expert):
@@ -46,7 +39,7 @@ while done < trials:
             again += int(np.any(choice[k + 1:k + 1 + round(0.4 / dt)] == expert))
     ok = st.recovered_step >= 0
     failed += not ok
-    print(f"trial {i - 1}: {'recovered' if ok else 'FAILED'}; experts every third step from the knock-down "
+    print(f"trial {trial}: {'recovered' if ok else 'FAILED'}; experts every third step from the knock-down "
           f"{''.join(str(x) for x in choice[st.down_step::3])}; chest {'down' if rows[st.down_step][3] < 0 else 'up'}")
 e = np.array(entries)
 print(f"{failed} of {trials} failed; expert {c.names[expert]}: clip ran out {len(ends)} times, root height then "

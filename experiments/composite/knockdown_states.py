@@ -10,35 +10,23 @@ from pathlib import Path
 
 import numpy as np
 
+from knockdowns import traced
 from mjxmimic.portable import composite as C
 from mjxmimic.task import recovery as protocol
 
 path, seed, trials, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
-c = C.read(Path(path))
-player = C.Player(c)
-first = c.start_expert(None)
-dt = player.env.control_dt
-n = protocol.steps(dt)
+player = C.Player(C.read(Path(path)))
 nq, nv = player.env.physics.scene.nq, player.env.physics.scene.nv
 up = protocol.UP_FRACTION * player.gate.stand_height
 qpos, qvel = [], []
-i = done = 0
-while done < trials:
-    tr = protocol.draw_trials(seed, i, 1, float(player.env.clip_durations[first]), "random", n.total)
-    rows = []
-
-    def on_step(k, d):
-        rows.append((player.env.data.qpos[:nq].copy(), player.env.data.qvel[:nv].copy(), float(d.root_height)))
-
-    st, _ = C.recovery_trial(player, float(tr.start_time[0]), first, 1000.0, float(tr.turn[0]), tr.u[0], n, on_step)
-    i += 1
-    if st.down_step < 0:
-        continue
-    done += 1
+last = -1
+for last, st, rows in traced(player, seed, trials,
+                             lambda d: (player.env.data.qpos[:nq].copy(), player.env.data.qvel[:nv].copy(),
+                                        float(d.root_height))):
     for q, v, h in rows[st.down_step::3]:
         if h >= up:
             break
         qpos.append(q)
         qvel.append(v)
 np.savez(out, qpos=np.array(qpos, np.float32), qvel=np.array(qvel, np.float32))
-print(f"{len(qpos)} states from {trials} knock-downs ({i} trials) -> {out}")
+print(f"{len(qpos)} states from {trials} knock-downs ({last + 1} trials) -> {out}")

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjxmimic.core import quat
 from mjxmimic.core.config import evaluation_config
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.runs.folder import load_policy_file
@@ -24,8 +25,7 @@ for i, t0 in enumerate(starts):
 
     def on_step(e, s):
         if not first:
-            w, x, y, z = e.data.qpos[3:7]
-            yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+            yaw = quat.heading(e.data.qpos[3:7], np)
             g = e.motion.goal
             first["bearing"] = np.arctan2(g[1] - e.data.qpos[1], g[0] - e.data.qpos[0]) - yaw
             first["distance"] = float(np.hypot(g[0] - e.data.qpos[0], g[1] - e.data.qpos[1]))

@@ -5,8 +5,8 @@ one, starts some of its episodes fallen).
 Each state is matched once, when the env is built, to the clip and time whose reference pose is
 nearest by the composite gate's own rule (`mjxmimic.envs.composite`), so that an expert trained
 from such states learns to go on from where the gate will enter it; then turned about the
-vertical and moved so that its root's heading and floor position are the reference's there: the
-imitation reward then grades it against that frame, as it grades an RSI start. A reset that draws
+vertical and moved so that its root's heading and floor position are the reference's there
+(`goals.align_reference`, with the state as the one turned): the imitation reward then grades it against that frame, as it grades an RSI start. A reset that draws
 it (`mjxmimic.envs.step.from_bank`) starts the clip at that time.
 """
 
@@ -17,16 +17,15 @@ from typing import Any
 
 import numpy as np
 
-from mjxmimic.core import quat
 from mjxmimic.core.character import Character
 from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.kinematics import root_yaw
 from mjxmimic.core.scene import Scene
 from mjxmimic.envs import composite as gate_lib
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
+from mjxmimic.task import goals
 
 KEY = "env.start_states"
 
@@ -54,20 +53,6 @@ def read(path: str, nq: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
     return qpos, qvel
 
 
-def aligned(lib: motion_lib.MotionLib, kinematics: Any, qpos: np.ndarray, qvel: np.ndarray, clip: int,
-            t: float) -> tuple[np.ndarray, np.ndarray]:
-    """The state turned about the vertical through its root and moved on the floor so that its root
-    heading and position are those of `clip`'s reference at time t."""
-    ref_qpos, _ = motion_lib.sample(lib, clip, np.float32(t), np)
-    turn = float(root_yaw(kinematics(ref_qpos, np.zeros_like(qvel)), np)
-                 - root_yaw(kinematics(qpos, qvel), np))
-    qpos, qvel = qpos.copy(), qvel.copy()
-    qpos[0:2] = ref_qpos[0:2]
-    qpos[3:7] = quat.mul(quat.from_yaw(np.float32(turn), np), qpos[3:7], np)
-    qvel[0:3] = quat.rotate_yaw(qvel[0:3], np.float32(turn), np)  # world frame; the angular part is the body's
-    return qpos, qvel
-
-
 def build(config: Config, character: Character, scene: Scene, clips: list[Any], weights: Any, xp: Any
           ) -> step_lib.StartBank:
     """The bank of `config.env.start_states` for these clips, arrays in xp."""
@@ -86,6 +71,7 @@ def build(config: Config, character: Character, scene: Scene, clips: list[Any], 
         d = np.where(valid, np.sum((feats - f) ** 2, axis=-1), np.inf)
         c, g = np.unravel_index(int(np.argmin(d)), d.shape)
         clip_of[n], time_of[n] = c, times[c, g]
-        out_q[n], out_v[n] = aligned(spec.lib, physics.kinematics, q, v, int(c), float(times[c, g]))
+        ref_qpos, _ = motion_lib.sample(spec.lib, int(c), times[c, g], np)
+        out_q[n], out_v[n] = goals.align_reference(q, v, ref_qpos, np)
     return step_lib.StartBank(qpos=xp.asarray(out_q), qvel=xp.asarray(out_v), clip=xp.asarray(clip_of),
                               time=xp.asarray(time_of))
