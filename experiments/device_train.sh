@@ -101,7 +101,7 @@ if [ "${PACK:-checkpoints}" != checkpoints ]; then
   wait
   for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done
   keep_best=(--exclude=best); [ "$PACK" = best ] && keep_best=()
-  tar czf - --exclude=checkpoints "${keep_best[@]}" runs | split -b 15M - "$OUT/policies.tgz."
+  tar czf - --exclude=checkpoints --exclude=tb "${keep_best[@]}" runs | split -b 15M - "$OUT/policies.tgz."
   exit 0
 fi
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
