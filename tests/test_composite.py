@@ -17,6 +17,7 @@ from mjxmimic import cli
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.envs import composite as gate_lib
+from mjxmimic.envs import start_bank
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.motion.clip import load_clip_source
@@ -298,6 +299,37 @@ def test_cpu_recovery_rate_counts_knockdowns(still_composite, short_protocol):
     assert out["knockdowns"] == 2 and out["knocked_trials"] == [0, 1] and out["fell_before_push"] == 0
     assert 0.0 <= out["recovery_rate"] <= 1.0
     assert sum(out["expert_share"].values()) == pytest.approx(1.0)
+
+
+def test_knocked_down_states_are_saved_for_getups_to_train_from(still_composite, short_protocol, tmp_path, capsys):
+    out_file = tmp_path / "knocked.npz"
+    args = ["play", str(still_composite), "--knockdowns", "2", "--force", "3000", "--push-direction", "forward",
+            "--json", "--save-states", str(out_file)]
+    assert cli.main(args) == 0
+    result = json.loads(capsys.readouterr().out)
+    c = composite.read(still_composite)
+    knocked: list = []
+    again = composite.recovery_rate(c, knockdowns=2, force_n=3000.0, direction="forward", seed=0,
+                                    knocked_states=knocked)
+    assert result["recovery_rate"] == again["recovery_rate"]  # collecting changes nothing
+    scene = composite.Player(c).env.physics.scene
+    qpos, qvel = start_bank.read(str(out_file), scene.nq, scene.nv)
+    assert result["saved_states"] == {"file": str(out_file), "states": len(qpos)} and len(qpos) == len(knocked) > 0
+    np.testing.assert_array_equal(qpos, np.array([q for q, _ in knocked], np.float32))
+    up = recovery.UP_FRACTION * composite.Player(c).gate.stand_height
+    assert (qpos[:, 2] < up + 0.2).all()  # bodies on their way down or lying, not walking tall
+    assert [p.name for p in tmp_path.iterdir()] == ["knocked.npz"]  # no part file left behind
+
+
+def test_save_states_errors_are_one_line(still_composite, composite_file, expert_files, tmp_path, capsys):
+    for args, message in (
+            ([str(still_composite), "--save-states", str(tmp_path / "k.npz")], "needs --knockdowns"),
+            ([str(still_composite), "--knockdowns", "1", "--save-states", str(tmp_path / "k.txt")], "ending in .npz"),
+            ([str(expert_files["slow_walk"]), "--knockdowns", "1"], "--knockdowns is for composite files")):
+        assert cli.main(["play", *args]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "k.npz").exists()
 
 
 # ------------------------------------------------------------------------------------ CPU playback

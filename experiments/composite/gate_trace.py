@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from knockdowns import traced
 from mjxmimic.core import quat
 from mjxmimic.portable import composite as C
+from mjxmimic.task import recovery as protocol
 
 path, seed, trials = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 expert = int(sys.argv[4]) if len(sys.argv) > 4 else 1
@@ -24,12 +24,29 @@ duration = float(player.env.clip_durations[expert])
 ends, again, entries, failed = [], 0, [], 0
 
 
+def traced(seed: int, count: int, record):
+    """(trial index, final rule state, record(decision) of every step) of the first `count` trials
+    that knocked the character down, one after another as `play --knockdowns` runs them."""
+    first = player.composite.start_expert(None)
+    n = protocol.steps(dt)
+    i = done = 0
+    while done < count:
+        tr = protocol.draw_trials(seed, i, 1, float(player.env.clip_durations[first]), "random", n.total)
+        rows = []
+        st, _ = C.recovery_trial(player, float(tr.start_time[0]), first, 1000.0, float(tr.turn[0]), tr.u[0], n,
+                                 lambda k, d: rows.append(record(d)))
+        i += 1
+        if st.down_step >= 0:
+            done += 1
+            yield i - 1, st, rows
+
+
 def record(d):
     forward = quat.rotate(player.env.data.qpos[3:7], np.array([1.0, 0.0, 0.0]), np)
     return int(d.choice), float(d.root_height), float(d.times[expert]), forward[2]
 
 
-for trial, st, rows in traced(player, seed, trials, record):
+for trial, st, rows in traced(seed, trials, record):
     choice = np.array([r[0] for r in rows])
     for k in range(st.down_step, len(rows)):
         if choice[k] == expert and (k == 0 or choice[k - 1] != expert):

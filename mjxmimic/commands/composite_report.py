@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
 
@@ -39,6 +40,29 @@ def print_recovery(result: dict[str, Any], as_json: bool) -> None:
         print(f"  recovered within 5 s {result['recovered']} of {result['knockdowns']}: {100 * rate:.0f} %"
               + ("" if mean is None else f", on its feet and tracking after {mean:.2f} s on average"))
     print("  expert time share    " + ", ".join(f"{n} {100 * s:.0f} %" for n, s in result["expert_share"].items()))
+    if "saved_states" in result:
+        print(f"  saved                {result['saved_states']['states']} knocked-down states to "
+              f"{result['saved_states']['file']}")
+
+
+def _save_states(path: Path, states: list) -> int:
+    """Writes (qpos, qvel) rows as env.start_states reads them, whole or not at all; their count."""
+    import os
+
+    import numpy as np
+
+    from mjxmimic.core.errors import UserError
+
+    if not states:
+        raise UserError(f"--save-states {path}: no knock-down left a state to save")
+    tmp = path.with_name(path.name + ".part.npz")
+    try:
+        np.savez(tmp, qpos=np.array([q for q, _ in states], np.float32), qvel=np.array([v for _, v in states], np.float32))
+        os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise UserError(f"--save-states {path}: cannot write it ({e.strerror})") from None
+    return len(states)
 
 
 def play(args: argparse.Namespace, c) -> int:
@@ -52,12 +76,18 @@ def play(args: argparse.Namespace, c) -> int:
         if given:
             raise UserError(f"{flag} is for single policies; a composite plays with --push-once, --knockdowns "
                             f"or --episodes")
+    if args.save_states is not None and (args.knockdowns is None or args.save_states.suffix != ".npz"):
+        raise UserError(f"--save-states {args.save_states}: needs --knockdowns, and a file name ending in .npz")
     if args.knockdowns is not None:
         force, direction = check_knockdowns(args)
         say = None if args.json else (lambda i, k, r: print(f"  trial {i + 1}: {k} knock-downs, {r} recovered",
                                                             file=sys.stderr, flush=True))
+        knocked: list | None = None if args.save_states is None else []
         result = composite.recovery_rate(c, args.knockdowns, force, direction, 0 if args.seed is None else args.seed,
-                                         expert=args.expert, temperature=args.temperature, progress=say)
+                                         expert=args.expert, temperature=args.temperature, progress=say,
+                                         knocked_states=knocked)
+        if knocked is not None:
+            result["saved_states"] = {"file": str(args.save_states), "states": _save_states(args.save_states, knocked)}
         print_recovery(result, args.json)
         return 0
     if args.episodes is not None:

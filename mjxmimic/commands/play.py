@@ -60,6 +60,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="the recovery rate over this many knock-downs instead (mjxmimic.task.recovery)")
     composite.add_argument("--force", type=float, default=None,
                            help="the knock-down push in newtons (default mjxmimic.task.recovery.DEFAULT_FORCE_N)")
+    composite.add_argument("--save-states", type=Path, default=None, metavar="FILE.npz",
+                           help="with --knockdowns: also write the knocked-down bodies' states (qpos, qvel), "
+                                "for getups to train from (env.start_states)")
 
 
 def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
@@ -223,6 +226,10 @@ def run(args: argparse.Namespace) -> int:
         from mjxmimic.commands import composite_report
 
         return composite_report.play(args, composite.read(args.policy))
+    for flag, given in (("--knockdowns", args.knockdowns), ("--save-states", args.save_states),
+                        ("--push-once", args.push_once)):
+        if given is not None:
+            raise UserError(f"{flag} is for composite files (mjxmimic compose); {args.policy} is a single policy")
     pf = load_policy_file(args.policy)
     character = pf.character()
     clips = pf.clips()

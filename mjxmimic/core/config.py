@@ -72,7 +72,7 @@ class EnvConfig:
     reset_velocity_range: tuple[float, ...] = (1.0, 1.0)
     # start_states_fraction of the training episodes start instead from a state of the file
     # start_states (.npz: qpos (N, nq), qvel (N, nv) of the character, e.g. bodies knocked down:
-    # experiments/composite/knockdown_states.py), at the clip time whose reference pose is nearest,
+    # `mjxmimic play COMPOSITE --knockdowns N --save-states`), at the clip time whose reference pose is nearest,
     # turned and moved onto that reference (mjxmimic.envs.start_bank); training only
     start_states: str = ""
     start_states_fraction: float = 0.0
@@ -120,6 +120,9 @@ class TaskConfig:
     # throw: the clip time (s) at which the hand lets go; the project's pitch clip's
     # (mjxmimic/motion/clips/make_clips.py PITCH_RELEASE_S; a test keeps them equal)
     release_s: float = 1.1
+    # throw: k of r_task = exp(-k max(0, d - radius)^2), d the ball's (predicted) landing distance
+    # from the target in m; larger k tells a near miss from a hit more sharply
+    throw_shape: float = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -392,6 +395,7 @@ def validate(config: Config) -> None:
         (config.task.speed >= 0, "task.speed", "must be >= 0 (0: the clip's own speed)"),
         (config.task.resample_s > 0, "task.resample_s", "must be positive"),
         (config.task.release_s > 0, "task.release_s", "must be positive (a clip time in s)"),
+        (config.task.throw_shape > 0, "task.throw_shape", "must be positive"),
         (config.terrain.kind in ("none",) + TERRAINS, "terrain.kind",
          f"must be 'none' or one of {', '.join(TERRAINS)}"),
         (0 <= config.terrain.difficulty <= 1, "terrain.difficulty", "must be in [0, 1]"),

@@ -42,6 +42,7 @@ FORMAT = "mjxmimic-composite"
 FORMAT_VERSION = 1
 DEFAULT_TEMPERATURE = 0.3
 COMPOSITE_TERMINATIONS = ("bad_state",)  # falls end nothing: getting up is the point
+KNOCKED_STATE_EVERY = 3  # control steps between the knocked-down states that recovery_rate keeps
 
 
 @dataclasses.dataclass
@@ -354,19 +355,33 @@ def recovery_trial(player: Player, t0: float, expert: int, force_n: float, turn:
 def recovery_rate(c: Composite, knockdowns: int = 50, force_n: float = protocol.DEFAULT_FORCE_N,
                   direction: str = "random", seed: int = 0, max_trials: int | None = None,
                   expert: str | None = None, temperature: float | None = None,
-                  progress: Callable[[int, int, int], Any] | None = None) -> dict[str, Any]:
+                  progress: Callable[[int, int, int], Any] | None = None,
+                  knocked_states: list[tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, Any]:
     """The recovery rate over the first `knockdowns` knock-downs, trials one after another on the
-    CPU (at most `max_trials`, default 4 per knock-down asked)."""
+    CPU (at most `max_trials`, default 4 per knock-down asked). With a `knocked_states` list, the
+    character's (qpos, qvel) after every KNOCKED_STATE_EVERY-th step of each knock-down, from going
+    down until it is up again, is appended to it: states for getups to train from
+    (`env.start_states`, mjxmimic.envs.start_bank)."""
     player = Player(c, temperature)
     first = c.start_expert(expert)
     n = protocol.steps(player.env.control_dt)
     limit = max_trials or 4 * knockdowns
     duration = float(player.env.clip_durations[first])
+    up = protocol.UP_FRACTION * player.gate.stand_height
+    nq, nv = player.env.physics.scene.nq, player.env.physics.scene.nv
     states, counts = [], []
     for i in range(limit):
         trial = protocol.draw_trials(seed, i, 1, duration, direction, n.total)
+        rows: list = []
+        record = None if knocked_states is None else (lambda k, d: rows.append(
+            (player.env.data.qpos[:nq].copy(), player.env.data.qvel[:nv].copy(), float(d.root_height))))
         state, used = recovery_trial(player, float(trial.start_time[0]), first, force_n, float(trial.turn[0]),
-                                     trial.u[0], n)
+                                     trial.u[0], n, record)
+        if knocked_states is not None and state.down_step >= 0:
+            for q, v, height in rows[state.down_step::KNOCKED_STATE_EVERY]:
+                if height >= up:
+                    break
+                knocked_states.append((q, v))
         states.append(state)
         counts.append(used)
         knocked = sum(s.down_step >= 0 for s in states)
