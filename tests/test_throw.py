@@ -1,6 +1,7 @@
 """The throw task (mjxmimic.task.goals): the authored pitch clip, the ball held in the hand and let
 go at the release time, the target on the floor, landing, hits and misses, MJX and MuJoCo C alike."""
 
+import dataclasses
 import importlib.util
 import math
 
@@ -91,6 +92,8 @@ def test_config_defaults_and_one_line_errors(character, pitch):
     assert (mine.clip.name, mine.task.target_min_m, mine.task.target_max_m) == ("wave", 3.0, 9.0)
     with pytest.raises(UserError, match="task.release_s"):
         make_config("cpu", {"task.name": "throw", "task.release_s": 0})
+    with pytest.raises(UserError, match="task.throw_shape"):
+        make_config("cpu", {"task.name": "throw", "task.throw_shape": 0})
     with pytest.raises(UserError, match="task.target_min_m"):
         make_config("cpu", {"task.name": "throw", "task.target_max_m": 1.0})
     for overrides, match in [({"task.throw_hand": "tail"}, "task.throw_hand.*no body 'tail'"),
@@ -157,9 +160,12 @@ def test_the_hand_holds_the_ball_until_the_release_then_it_flies_and_lands(throw
     assert m["task/distance"] == pytest.approx(goal[3], abs=1e-6)
 
 
-@pytest.mark.parametrize("offset, hit", [(0.0, True), (0.3, True), (1.5, False)])
-def test_a_ball_dropped_on_the_target_is_a_hit_and_elsewhere_a_miss(throw_env, offset, hit):
-    env = throw_env
+@pytest.mark.parametrize("offset, hit, shape", [(0.0, True, 0.5), (0.3, True, 0.5), (1.5, False, 0.5), (1.5, False, 4.0)])
+def test_a_ball_dropped_on_the_target_is_a_hit_and_elsewhere_a_miss(throw_env, character, pitch, offset, hit, shape):
+    from mjxmimic.envs.cpu_env import CpuEnv
+
+    env = throw_env if shape == THROW.task.throw_shape else CpuEnv(
+        dataclasses.replace(THROW, task=dataclasses.replace(THROW.task, throw_shape=shape)), character, pitch)
     env.reset_at(env.config.task.release_s + 0.05, event_seed=0.7)  # already let go
     goal = env.motion.goal
     qpos, qvel = env.data.qpos.copy(), env.data.qvel.copy()
@@ -176,7 +182,7 @@ def test_a_ball_dropped_on_the_target_is_a_hit_and_elsewhere_a_miss(throw_env, o
     assert env.motion.goal[3] == pytest.approx(offset, abs=0.02)
     assert (hits[-1] == 1.0) == hit and hits[-1] == hits[-2]  # stays recorded
     radius = env.config.task.target_radius_m
-    assert rewards[-1] == pytest.approx(math.exp(-goals.THROW_SHAPE * max(0.0, offset - radius) ** 2), abs=0.02)
+    assert rewards[-1] == pytest.approx(math.exp(-env.config.task.throw_shape * max(0.0, offset - radius) ** 2), abs=0.02)
 
 
 def test_a_ball_launched_at_the_target_lands_on_it():

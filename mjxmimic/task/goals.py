@@ -33,7 +33,7 @@ throw: throw a ball onto a target on the floor (the pitch clip). The ball (mjxmi
     LAND_TOLERANCE_M of resting on the floor after release; where it landed is taken to be where the
     ballistic prediction of the step before put it (the ball touches nothing but the floor, so the
     flight is ballistic, and 1/30 s of rolling after the touch does not count). r_task =
-    exp(-THROW_SHAPE max(0, d - target radius)^2), d the distance from the target of where the
+    exp(-k max(0, d - target radius)^2) (k: `task.throw_shape`), d the distance from the target of where the
     ball would land if it flew freely from now on (held: if let go now), and after landing of
     where it landed: a shaped choice, DEEPMIMIC.md states only the 0.7 / 0.3 mix and that success is
     the ball landing on the target. Success (a hit): it landed within `task.target_radius_m`.
@@ -66,7 +66,6 @@ SPEED_TOLERANCE = 0.15  # a heading episode succeeds when its speed along the go
 GRAVITY = 9.81  # m/s^2, MuJoCo's default, which the scene keeps
 HOLD_OFFSET = (0.0, 0.0, -0.08)  # throw: the ball's centre in the hand body's frame (beyond the wrist)
 LAND_TOLERANCE_M = 0.01  # throw: the ball has landed once its centre is this close to its radius
-THROW_SHAPE = 0.5  # throw: k of r_task = exp(-k max(0, d - radius)^2), d in m
 
 
 def clip_speed(lib: Any, clip: Any, xp: Any) -> Any:
@@ -169,7 +168,7 @@ def throw(task: TaskConfig, ball_pos: Any, ball_vel: Any, released: Any, radius:
     d = xp.where(landed_before | touched, goal[3], predicted)
     landed = landed_before | touched
     hit = landed & (d <= task.target_radius_m)
-    r_task = xp.exp(-THROW_SHAPE * xp.maximum(0.0, d - task.target_radius_m) ** 2)
+    r_task = xp.exp(-task.throw_shape * xp.maximum(0.0, d - task.target_radius_m) ** 2)
     state = xp.stack([goal[0], goal[1], landed.astype(goal.dtype), d.astype(goal.dtype)])
     return r_task, state, d, hit
 
