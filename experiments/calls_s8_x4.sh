@@ -8,8 +8,8 @@
 #       # the throw and the G1 run resumed; beside them, on the host's CPUs, the recovery test of
 #       # call 1's getups composed with the best composite's other experts
 #   bash experiments/calls_s8_x4.sh 3 SECONDS   # the same for call 2's getups; every policy back
-# Carried (ignored folders): .banks/knockdowns_v7_seed7_100.npz (experiments/composite/
-# knockdown_states.py, seed 7), .experts/ (the best composite's experts: walk_still_noise,
+# Carried (ignored folders): .banks/knockdowns_v7_seed7_100.npz (`mjxmimic play composite_v7.npz
+# --knockdowns 100 --force 1000 --seed 7 --save-states`), .experts/ (the best composite's experts: walk_still_noise,
 # getup_facedown, getup_faceup_push), .g1/ (the G1's MJCF), .clips/ (with g1_run.txt).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips MJXMIMIC_G1=$PWD/.g1
