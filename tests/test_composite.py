@@ -325,6 +325,7 @@ def test_save_states_errors_are_one_line(still_composite, composite_file, expert
     for args, message in (
             ([str(still_composite), "--save-states", str(tmp_path / "k.npz")], "needs --knockdowns"),
             ([str(still_composite), "--knockdowns", "1", "--save-states", str(tmp_path / "k.txt")], "ending in .npz"),
+            ([str(still_composite), "--knockdowns", "1", "--save-states", str(tmp_path / "no" / "k.npz")], "no folder"),
             ([str(expert_files["slow_walk"]), "--knockdowns", "1"], "--knockdowns is for composite files")):
         assert cli.main(["play", *args]) == 2
         err = capsys.readouterr().err

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The recovery test on the device host's CPUs, beside its training lanes: each composite composed
-# from its experts (policy files or run folders, exported on the CPU) and played with --knockdowns
+# from its experts (policy files, or run folders with or without an exported policy.npz) and played with --knockdowns
 # N on MuJoCo C, seeds 0 and 1 side by side, one core each.
 #   bash experiments/composite/device_recovery.sh OUTDIR N "NAME|WALK GETUP_FACEDOWN GETUP_FACEUP" ...
 # Writes OUTDIR/recovery_NAME_seed{0,1}.json (mjxmimic play --json) and the compose lines.

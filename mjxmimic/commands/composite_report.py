@@ -78,6 +78,8 @@ def play(args: argparse.Namespace, c) -> int:
                             f"or --episodes")
     if args.save_states is not None and (args.knockdowns is None or args.save_states.suffix != ".npz"):
         raise UserError(f"--save-states {args.save_states}: needs --knockdowns, and a file name ending in .npz")
+    if args.save_states is not None and not args.save_states.parent.is_dir():
+        raise UserError(f"--save-states {args.save_states}: no folder {args.save_states.parent}")
     if args.knockdowns is not None:
         force, direction = check_knockdowns(args)
         say = None if args.json else (lambda i, k, r: print(f"  trial {i + 1}: {k} knock-downs, {r} recovered",
