@@ -47,20 +47,17 @@ def print_recovery(result: dict[str, Any], as_json: bool) -> None:
 
 def _save_states(path: Path, states: list) -> int:
     """Writes (qpos, qvel) rows as env.start_states reads them, whole or not at all; their count."""
-    import os
-
     import numpy as np
 
     from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.policy_file import save_arrays
 
     if not states:
         raise UserError(f"--save-states {path}: no knock-down left a state to save")
-    tmp = path.with_name(path.name + ".part.npz")
     try:
-        np.savez(tmp, qpos=np.array([q for q, _ in states], np.float32), qvel=np.array([v for _, v in states], np.float32))
-        os.replace(tmp, path)
+        save_arrays({"qpos": np.array([q for q, _ in states], np.float32),
+                     "qvel": np.array([v for _, v in states], np.float32)}, path)
     except OSError as e:
-        tmp.unlink(missing_ok=True)
         raise UserError(f"--save-states {path}: cannot write it ({e.strerror})") from None
     return len(states)
 
