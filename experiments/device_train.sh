@@ -15,7 +15,8 @@
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
-# PACK=none: bring back only the logs and metrics; the runs stay on the warm machine for the next call.
+# PACK=none: bring back only the logs and metrics (in logs.tgz); the runs stay on the warm machine
+# for the next call.
 set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
@@ -90,7 +91,10 @@ if [ -d /tmp/bench ]; then
   # cleared once packed: results of a call killed before this point come back with the next one
   tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
-[ "${PACK:-}" = none ] && exit 0
+if [ "${PACK:-}" = none ]; then  # one archive: $OUT brings back at most 8 files
+  (cd "$OUT" && tar czf logs.tgz ./*.log ./*.metrics.jsonl && rm -f ./*.log ./*.metrics.jsonl)
+  exit 0
+fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
   # side by side (one after the other, five exports overran a call), each taking GPU memory as it
   # needs it (eleven at the run's memory fraction on one GPU: three failed)
