@@ -25,8 +25,8 @@ case $1 in
   2) PACK=none bash experiments/device_train.sh "$2" "$sel200;dog_canter|$dog --clip canter" \
        "walker_max|$walker;throw_k2|$throw --set task.throw_shape=2" \
        "walker_heading|$walker --task heading;throw_k8|$throw --set task.throw_shape=8" "$sel300" ;;
-  3) PACK=policies bash experiments/device_train.sh "$2" "$sel200;dog_canter|$dog --clip canter" \
+  3) PACK=policies bash experiments/device_train.sh "$2" "$sel200" \
        "walker_max|$walker;throw_k2|$throw --set task.throw_shape=2" \
        "walker_heading|$walker --task heading;throw_k8|$throw --set task.throw_shape=8" \
-       "$sel300;dog_pace|$dog --clip pace" ;;
+       "$sel300" ;;
 esac

@@ -87,6 +87,19 @@ def test_skill_selector_and_max_of_clips_reward(two_clip_env):
 
 
 @pytest.mark.slow
+def test_training_switches_the_skill_on_mjx(character, tmp_path):
+    from mjxmimic.envs.mjx_env import make_env
+
+    path = _write(tmp_path, {"clips": ["slow_walk", "squat"]})
+    env = make_env(make_config("cpu", {"clip.name": str(path), "env.action_mode": "residual", "physics.backend": "jax",
+                                       "env.observations": "phase,root_height,bodies,skill",
+                                       "env.skill_switch_s": 1.0 / 30}))  # a switch every step
+    state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.2, 0)
+    nxt = jax.jit(env.transition)(state, jnp.zeros(env.action_size))
+    np.testing.assert_array_equal(np.asarray(nxt.obs[-2:]), [0.0, 1.0])  # now the squat's one-hot
+
+
+@pytest.mark.slow
 def test_evaluation_reports_each_clip(two_clip_env):
     from mjxmimic.runs.evaluate import evaluate
 
@@ -116,6 +129,7 @@ def test_train_on_a_dataset_end_to_end(tmp_path, capsys):
     run = tmp_path / "run"
     code = cli.main(["train", "--preset", "cpu", "--clip", str(path), "--out", str(run),
                      "--set", "env.observations=phase,root_height,bodies,skill", "--set", "reward.combine=max",
+                     "--set", "env.skill_switch_s=0.2",  # switches traced on MJX; evaluation without them
                      "--set", "run.total_samples=4096", "--set", "run.eval_every=4096", "--set", "run.eval_at_start=false"])
     assert code == 0
     final = json.loads((run / "eval.json").read_text())

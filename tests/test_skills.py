@@ -63,6 +63,52 @@ def test_switch_keeps_the_phase_and_flips_the_skill(character, two_clips):
     assert ref.shape == (character.nq,)
 
 
+def test_switch_moves_the_reference_under_the_character(character, two_clips):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED})
+    env = CpuEnv(config, character, two_clips)
+    env.reset_at(0.1)
+    for _ in range(15):  # the body drifts from the walk's reference
+        env.step(np.zeros(character.action_size))
+    env.switch(1)
+    ref, _ = env.reference(env.time)
+    np.testing.assert_allclose(ref[0:2], env.data.qpos[0:2], atol=1e-6)
+
+
+def _switching_env(character, clips, seconds):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED,
+                                            "env.skill_switch_s": seconds})
+    return CpuEnv(config, character, clips)
+
+
+def test_training_switches_the_skill(character, two_clips):
+    env = _switching_env(character, two_clips, 1.0 / 30)  # one switch per control step
+    env.reset_at(0.2, clip=0)
+    s = env.step(np.zeros(character.action_size))
+    assert not s.done and env.motion.clip == 1 and list(s.obs[-2:]) == [0.0, 1.0]
+    assert env.time == pytest.approx((0.2 + 1 / 30) / float(env.clip_durations[0]) * float(env.clip_durations[1]),
+                                     abs=1e-5)
+    ref, _ = env.reference(env.time)
+    np.testing.assert_allclose(ref[0:2], env.data.qpos[0:2], atol=1e-6)
+
+
+def test_skill_switches_come_at_the_configured_rate(character, two_clips):
+    from mjxmimic.envs import step as step_lib
+
+    env = _switching_env(character, two_clips, 0.5)  # p = (1/30) / 0.5 per step
+    env.reset_at(0.2)
+    switched = [int(step_lib._maybe_switch(env.spec, env.motion._replace(event_seed=seed, steps=k),
+                                           env.data.qpos, np.zeros((), bool), np).clip)
+                for seed in np.linspace(0.0, 1.0, 60, endpoint=False) for k in range(50)]
+    assert np.mean(switched) == pytest.approx(1 / 15, abs=0.015)
+
+
+def test_skill_switching_is_training_only_and_needs_the_skill_observation():
+    config = config_lib.make_config("cpu", {"env.observations": SKILLED, "env.skill_switch_s": 2.0})
+    assert config_lib.evaluation_config(config).env.skill_switch_s == 0.0
+    with pytest.raises(config_lib.UserError, match="env.skill_switch_s"):
+        config_lib.make_config("cpu", {"env.skill_switch_s": 2.0})
+
+
 def test_play_grades_every_clip(skilled_file, capsys):
     assert cli.main(["play", str(skilled_file), "--episodes", "2", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["clips"]

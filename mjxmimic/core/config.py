@@ -76,6 +76,11 @@ class EnvConfig:
     # turned and moved onto that reference (mjxmimic.envs.start_bank); training only
     start_states: str = ""
     start_states_fraction: float = 0.0
+    # > 0: on a dataset with the skill observation, training switches an episode's clip to another
+    # (drawn uniformly) on average every this many seconds, at the same phase, its reference root
+    # moved under the character: a selector trained only on episodes of one clip falls when the
+    # user switches (experiments/README.md); 0 = never; training only
+    skill_switch_s: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -344,7 +349,7 @@ def evaluation_config(config: Config) -> Config:
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
     return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
                                     "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0),
-                                    "env.start_states_fraction": 0.0})
+                                    "env.start_states_fraction": 0.0, "env.skill_switch_s": 0.0})
 
 
 def _scale_range_ok(factors: tuple[float, ...], zero_ok: bool = False) -> bool:
@@ -380,6 +385,9 @@ def validate(config: Config) -> None:
         (0 <= env.start_states_fraction <= 1, "env.start_states_fraction", "must be in [0, 1]"),
         (env.start_states_fraction == 0 or env.start_states != "", "env.start_states_fraction",
          "needs env.start_states (a .npz of qpos and qvel)"),
+        (env.skill_switch_s >= 0, "env.skill_switch_s", "must be >= 0 (seconds; 0 = off)"),
+        (env.skill_switch_s == 0 or "skill" in env.observations.split(","), "env.skill_switch_s",
+         "needs the skill observation (env.observations=...,skill)"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),

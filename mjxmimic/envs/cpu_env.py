@@ -94,11 +94,10 @@ class CpuEnv:
         return self.set_state(qpos, qvel, t, event_seed=event_seed, clip=clip)
 
     def switch(self, clip: int) -> np.ndarray:
-        """Play clip number `clip` from here on (the skill selector), at the same phase of its
-        cycle; returns the observation, whose skill one-hot now names it."""
-        durations = self.spec.lib.duration
-        phase = (float(self.motion.time) / float(durations[self.motion.clip])) % 1.0
-        self.motion = self.motion._replace(clip=int(clip), time=np.float32(phase * float(durations[clip])))
+        """Play clip number `clip` from here on (the skill selector, step.switched); returns the
+        observation, whose skill one-hot now names it."""
+        self.motion = step_lib.switched(self.spec, self.motion, int(clip), self.data.qpos, np)
+        self.motion = self.motion._replace(clip=int(self.motion.clip), time=np.float32(self.motion.time))
         return self._observe(self.motion)
 
     def step(self, action: Any, external_force: Any = None, grade_paper: bool = False) -> Step:

@@ -371,6 +371,33 @@ def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: A
     return xp.max(jax.vmap(against)(xp.arange(count)))
 
 
+def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any) -> Motion:
+    """The motion state following clip number `clip` from here on (the skill selector): at the
+    same phase of its cycle, its reference root moved under the character (as at a new cycle: the
+    old clip's offset would leave a faster clip's reference metres away)."""
+    lib = spec.lib
+    t = (motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip]).astype(xp.float32)
+    ref_qpos, _ = motion_lib.sample(lib, clip, t, xp)
+    offset = (qpos[0:2] - ref_qpos[0:2]).astype(xp.asarray(motion.root_offset).dtype)
+    return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset)
+
+
+SKILL_SWITCH_DRAWS = 1 << 24  # where the skill switches' draws start in the event seed's stream, two per step
+
+
+def _maybe_switch(spec: Spec, motion: Motion, qpos: Any, done: Any, xp: Any) -> Motion:
+    """env.skill_switch_s: with probability control_dt / skill_switch_s this step, the episode
+    goes on with another clip of the dataset (uniformly drawn), so that the selector learns the
+    switches a user makes at play time."""
+    count = spec.lib.duration.shape[0]
+    u = randomise.uniform(motion.event_seed, 2, xp, first=SKILL_SWITCH_DRAWS + 2 * motion.steps)
+    other = (motion.clip + 1 + xp.floor(u[1] * (count - 1)).astype(xp.asarray(motion.clip).dtype)) % count
+    flip = (u[0] < spec.control_dt / spec.config.env.skill_switch_s) & ~done
+    moved = switched(spec, motion, other, qpos, xp)
+    return motion._replace(clip=xp.where(flip, moved.clip, motion.clip), time=xp.where(flip, moved.time, motion.time),
+                           root_offset=xp.where(flip, moved.root_offset, motion.root_offset))
+
+
 def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, action: Any,
                  terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False) -> Result:
     """One control step (the module docstring); no reset. `external_force` (nbody, 6) is added to
@@ -446,6 +473,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
     motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
+    if env.skill_switch_s > 0 and lib.duration.shape[0] > 1:
+        motion = _maybe_switch(spec, motion, qpos, done, xp)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}

@@ -46,14 +46,15 @@ def _mix(x: Any, xp: Any) -> Any:
     return x ^ (x >> 16)
 
 
-def uniform(event_seed: Any, count: int, xp: Any, first: int = 0) -> Any:
+def uniform(event_seed: Any, count: int, xp: Any, first: Any = 0) -> Any:
     """`count` numbers in [0, 1), float32, independent-looking, from the event seed alone (the
     seed's stream from index `first` on: disjoint ranges are independent draws); the seed is taken
     as float32 (as MJX holds it), so numpy and JAX give the same bits."""
     seed = xp.floor(xp.asarray(event_seed, xp.float32) * xp.asarray(2.0**24, xp.float32)).astype(xp.uint32)
     seed = xp.reshape(seed, (1,))  # numpy wraps uint32 arrays silently, not 0-d scalars
     salt = xp.asarray(0x9E3779B9, xp.uint32)  # so that seed 0 does not hash to 0
-    bits = _mix(_mix(seed ^ salt, xp) + xp.arange(first, first + count, dtype=xp.uint32), xp)
+    index = xp.arange(count, dtype=xp.uint32) + xp.asarray(first).astype(xp.uint32)  # `first` may be traced
+    bits = _mix(_mix(seed ^ salt, xp) + index, xp)
     return (bits >> 8).astype(xp.float32) * xp.asarray(2.0**-24, xp.float32)
 
 
