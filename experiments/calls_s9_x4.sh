@@ -5,9 +5,10 @@
 #       # backflip (200 M, and 300 M with seed 1); the max-of-clips reward over the walker clips,
 #       # alone and with the target-heading task (100 M each)
 #   bash experiments/calls_s9_x4.sh 2 SECONDS   # the selectors go on; then issue 15: the throw
-#       # with task.throw_shape 2 and 8 at equal weights (250 M); issue 18: the dog's canter
-#   bash experiments/calls_s9_x4.sh 3 SECONDS   # all go on, the dog's pace after the 300 M selector;
-#       # every run's exported best policy back (finished runs return at once)
+#       # with task.throw_shape 2 and 8 at equal weights (250 M); issue 18: the dog's canter (it
+#       # got 45 s and no samples before the call's end, and was dropped)
+#   bash experiments/calls_s9_x4.sh 3 SECONDS   # all go on; every run's exported best policy back
+#       # (finished runs return at once)
 # Carried (ignored folder): .clips/ (DeepMimic's motions with walker/).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
