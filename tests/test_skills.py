@@ -96,8 +96,8 @@ def test_skill_switches_come_at_the_configured_rate(character, two_clips):
 
     env = _switching_env(character, two_clips, 0.5)  # p = (1/30) / 0.5 per step
     env.reset_at(0.2)
-    switched = [int(step_lib._maybe_switch(env.spec, env.motion._replace(event_seed=seed, steps=k),
-                                           env.data.qpos, np.zeros((), bool), np).clip)
+    switched = [int(step_lib.maybe_switch_skill(env.spec, env.motion._replace(event_seed=seed, steps=k),
+                                                env.data.qpos, np.zeros((), bool), np).clip)
                 for seed in np.linspace(0.0, 1.0, 60, endpoint=False) for k in range(50)]
     assert np.mean(switched) == pytest.approx(1 / 15, abs=0.015)
 

@@ -190,7 +190,6 @@ def switch(spec: step_lib.Spec, motion: step_lib.Motion, decision: Decision, qpo
     choice = decision.choice
     same = choice == motion.clip
     t = decision.times[choice]
-    ref_qpos, _ = motion_lib.sample(spec.lib, choice, t, xp)
-    offset = xp.where(same, motion.root_offset, (qpos[0:2] - ref_qpos[0:2]).astype(motion.root_offset.dtype))
+    offset = xp.where(same, motion.root_offset, step_lib.root_under(spec, choice, t, qpos, xp).astype(motion.root_offset.dtype))
     return motion._replace(clip=xp.where(same, motion.clip, choice).astype(xp.asarray(motion.clip).dtype),
                            time=xp.where(same, motion.time, t).astype(xp.float32), root_offset=offset)

@@ -377,15 +377,20 @@ def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any) -> Motio
     old clip's offset would leave a faster clip's reference metres away)."""
     lib = spec.lib
     t = (motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip]).astype(xp.float32)
-    ref_qpos, _ = motion_lib.sample(lib, clip, t, xp)
-    offset = (qpos[0:2] - ref_qpos[0:2]).astype(xp.asarray(motion.root_offset).dtype)
+    offset = root_under(spec, clip, t, qpos, xp).astype(xp.asarray(motion.root_offset).dtype)
     return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset)
+
+
+def root_under(spec: Spec, clip: Any, t: Any, qpos: Any, xp: Any) -> Any:
+    """The root offset (2,) that puts clip `clip`'s reference at time t under the character."""
+    ref_qpos, _ = motion_lib.sample(spec.lib, clip, t, xp)
+    return qpos[0:2] - ref_qpos[0:2]
 
 
 SKILL_SWITCH_DRAWS = 1 << 24  # where the skill switches' draws start in the event seed's stream, two per step
 
 
-def _maybe_switch(spec: Spec, motion: Motion, qpos: Any, done: Any, xp: Any) -> Motion:
+def maybe_switch_skill(spec: Spec, motion: Motion, qpos: Any, done: Any, xp: Any) -> Motion:
     """env.skill_switch_s: with probability control_dt / skill_switch_s this step, the episode
     goes on with another clip of the dataset (uniformly drawn), so that the selector learns the
     switches a user makes at play time."""
@@ -474,7 +479,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
 
     motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
     if env.skill_switch_s > 0 and lib.duration.shape[0] > 1:
-        motion = _maybe_switch(spec, motion, qpos, done, xp)
+        motion = maybe_switch_skill(spec, motion, qpos, done, xp)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}
