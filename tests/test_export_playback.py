@@ -430,6 +430,26 @@ def test_sim_to_sim_nr_on_the_same_starts(run, policy_file):
     assert 0.7 < result["nr"] / per_mjx.mean() < 1.4, (result["per_episode_nr"], per_mjx)
 
 
+@pytest.mark.slow
+def test_eval_of_the_exported_file_matches_the_run(run, policy_file, capsys):
+    """`mjxmimic eval POLICY.npz` measures on MJX what `mjxmimic eval RUN` measures of the same
+    checkpoint (the same episodes: the run's evaluation seed), the network in jax.numpy."""
+    results = []
+    for source in (run["dir"], policy_file):
+        assert cli_main(["eval", str(source), "--episodes", "4", "--json"]) == 0
+        results.append(json.loads(capsys.readouterr().out))
+    from_run, from_file = results
+    assert from_file["episodes"] == 4 and from_file["policy"] == str(policy_file)
+    for key in ("nr", "nr_paper", "fall_rate", "survival_s"):
+        assert from_file[key] == pytest.approx(from_run[key], abs=1e-4), key
+
+
+def test_eval_of_a_missing_policy_file_is_one_line(tmp_path, capsys):
+    assert cli_main(["eval", str(tmp_path / "missing.npz")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "missing.npz: policy file not found" in err and len(err.splitlines()) == 1
+
+
 def test_cpu_episode_counts_like_the_evaluation(cpu_env):
     """Zero absolute targets on a looping clip: the horizon is the env's episode length in steps
     (600 at 20 s), NR is reward / horizon, a fall ends the episode and scores 0 after it."""

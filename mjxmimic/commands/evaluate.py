@@ -1,4 +1,5 @@
-"""`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint.
+"""`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint, or of
+an exported policy file (`mjxmimic eval POLICY.npz`, on MJX; mjxmimic.runs.evaluate_run).
 
 Evaluates one of the run's checkpoints (the latest unless --checkpoint) by the NR protocol
 (mjxmimic.runs.evaluate_run), which writes RUN/eval_<checkpoint>.json (the training's eval.json
@@ -17,7 +18,7 @@ from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder")
+    parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder, or an exported policy file (on MJX)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
@@ -111,15 +112,20 @@ def run(args: argparse.Namespace) -> int:
         return _run_composite(args)
     if args.push:
         return _run_push(args)
-    from mjxmimic.runs.evaluate_run import evaluate_run
+    from mjxmimic.runs.evaluate_run import evaluate_policy_file, evaluate_run
 
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
-    result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint, progress=say)
+    if args.run_dir.is_file() or args.run_dir.suffix in (".npz", ".onnx"):
+        result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say)
+        title = f"{args.run_dir} ({result['clip']}, MJX)"
+    else:
+        result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint, progress=say)
+        title = f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,})"
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
     width = max(len(label) for _, label, _ in _ROWS)
-    print(f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,})", file=sys.stdout)
+    print(title, file=sys.stdout)
     for key, label, fmt in _ROWS:
         if key in result:
             print(f"  {label:<{width}}  {fmt.format(result[key])}")

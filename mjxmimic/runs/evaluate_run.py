@@ -1,8 +1,10 @@
-"""NR of a run folder's checkpoint, outside training (`mjxmimic eval`, physics studies).
+"""NR of a run folder's checkpoint, outside training (`mjxmimic eval`, physics studies), or of
+an exported policy file on MJX.
 
 The NR protocol itself is mjxmimic.runs.evaluate's; this reads the run (mjxmimic.runs.folder),
 builds its env unless given one, and records the result beside the checkpoint it measured
-(RUN/eval_<checkpoint>.json).
+(RUN/eval_<checkpoint>.json). A policy file needs no run folder: whoever has the file can
+measure it again on MJX, with other seeds and more episodes.
 """
 
 from __future__ import annotations
@@ -60,3 +62,36 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
     if write:
         folder.write_json_atomic(folder.eval_path_of(run_dir, step), result)
     return result
+
+
+def evaluate_policy_file(path: Path, episodes: int | None = None, seed: int | None = None,
+                         progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """NR of an exported policy file (`mjxmimic export`) on MJX, in the conditions of its run's
+    evaluations (its config, character and clips; seed run.seed + 1 by default, the training's
+    start times). The network runs in jax.numpy as mjxmimic.portable.policy_numpy computes it;
+    terrain policies (a heightmap encoder) need their run folder."""
+    if episodes is not None and episodes < 1:
+        raise UserError(f"--episodes {episodes}: must be at least 1")
+    say = progress or (lambda text: None)
+    pf = folder.load_policy_file(path)
+    if "conv_0" in pf.params["policy"]:
+        raise UserError(f"{path}: a terrain policy; evaluate its run folder instead")
+    config = config_lib.evaluation_config(pf.config())
+    say("building the env")
+
+    import jax.numpy as jnp
+
+    from mjxmimic.envs.mjx_env import ImitationEnv
+    from mjxmimic.portable.policy_numpy import mlp, ordered_layers
+    from mjxmimic.runs.evaluate import evaluate
+
+    env = ImitationEnv(config, pf.character(), pf.clips(), pf.weights())
+    mean, std = (jnp.asarray(pf.params["normalizer"][k], jnp.float32) for k in ("mean", "std"))
+    layers = [(jnp.asarray(k), jnp.asarray(b)) for k, b in ordered_layers(pf.params, "policy")]
+
+    def policy(obs: Any, key: Any) -> Any:
+        return jnp.tanh(mlp(obs, mean, std, layers, jnp)[..., :env.action_size])
+
+    say(f"compiling and running {episodes or config.run.eval_episodes} episodes")
+    result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed, episodes=episodes)
+    return {**result, "policy": str(path), "clip": config.clip.name}
