@@ -444,10 +444,12 @@ def test_eval_of_the_exported_file_matches_the_run(run, policy_file, capsys):
         assert from_file[key] == pytest.approx(from_run[key], abs=1e-4), key
 
 
-def test_eval_of_a_missing_policy_file_is_one_line(tmp_path, capsys):
+def test_eval_of_a_policy_file_errors_are_one_line(tmp_path, policy_file, capsys):
     assert cli_main(["eval", str(tmp_path / "missing.npz")]) == 2
     err = capsys.readouterr().err.strip()
     assert "missing.npz: policy file not found" in err and len(err.splitlines()) == 1
+    assert cli_main(["eval", str(policy_file), "--checkpoint", "best"]) == 2
+    assert "--checkpoint is for run folders" in capsys.readouterr().err
 
 
 def test_cpu_episode_counts_like_the_evaluation(cpu_env):

@@ -116,6 +116,10 @@ def run(args: argparse.Namespace) -> int:
 
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
     if args.run_dir.is_file() or args.run_dir.suffix in (".npz", ".onnx"):
+        if args.checkpoint != "latest":
+            from mjxmimic.core.errors import UserError
+
+            raise UserError(f"--checkpoint is for run folders; {args.run_dir} holds one policy")
         result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say)
         title = f"{args.run_dir} ({result['clip']}, MJX)"
     else:
