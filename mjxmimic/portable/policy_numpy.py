@@ -58,6 +58,13 @@ def ordered_layers(params: Mapping[str, Any], net: str) -> list[tuple[Any, Any]]
     return [(tree[n]["kernel"], tree[n]["bias"]) for _, n in names]
 
 
+def network_arrays(params: Mapping[str, Any], net: str, xp: Any) -> tuple[Any, Any, list[tuple[Any, Any]]]:
+    """(mean, std, layers) of network `net` as `xp` arrays (the normaliser in float32): what `mlp`
+    takes, for the same function on MJX (jax.numpy)."""
+    mean, std = (xp.asarray(params["normalizer"][k], xp.float32) for k in ("mean", "std"))
+    return mean, std, [(xp.asarray(k), xp.asarray(b)) for k, b in ordered_layers(params, net)]
+
+
 def mlp(obs: Any, mean: Any, std: Any, layers: list[tuple[Any, Any]], xp: Any = np) -> Any:
     """The normalised observation through relu layers, the last one linear (numpy in float64, or
     jax.numpy for the composite's gate on MJX)."""

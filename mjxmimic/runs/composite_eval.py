@@ -21,7 +21,7 @@ from mjxmimic.envs import composite as gate_lib
 from mjxmimic.envs import step as step_lib
 from mjxmimic.envs.mjx_env import ImitationEnv
 from mjxmimic.portable.composite import COMPOSITE_TERMINATIONS, Composite, Player
-from mjxmimic.portable.policy_numpy import mlp, ordered_layers
+from mjxmimic.portable.policy_numpy import mlp, network_arrays
 from mjxmimic.task import push_protocol
 from mjxmimic.task import recovery as protocol
 
@@ -31,9 +31,8 @@ def _networks(c: Composite) -> tuple[Callable[[Any], Any], Callable[[Any], Any]]
     expert's networks on its own row (jax.numpy; the numpy player's function)."""
     nets = []
     for pf in c.experts:
-        mean, std = (jnp.asarray(pf.params["normalizer"][k], jnp.float32) for k in ("mean", "std"))
-        layers = {net: [(jnp.asarray(k), jnp.asarray(b)) for k, b in ordered_layers(pf.params, net)]
-                  for net in ("policy", "value")}
+        mean, std, policy = network_arrays(pf.params, "policy", jnp)
+        layers = {"policy": policy, "value": network_arrays(pf.params, "value", jnp)[2]}
         nets.append((mean, std, layers, pf.policy().action_size))
 
     def values_of(obs: Any) -> Any:

@@ -82,12 +82,11 @@ def evaluate_policy_file(path: Path, episodes: int | None = None, seed: int | No
     import jax.numpy as jnp
 
     from mjxmimic.envs.mjx_env import ImitationEnv
-    from mjxmimic.portable.policy_numpy import mlp, ordered_layers
+    from mjxmimic.portable.policy_numpy import mlp, network_arrays
     from mjxmimic.runs.evaluate import evaluate
 
     env = ImitationEnv(config, pf.character(), pf.clips(), pf.weights())
-    mean, std = (jnp.asarray(pf.params["normalizer"][k], jnp.float32) for k in ("mean", "std"))
-    layers = [(jnp.asarray(k), jnp.asarray(b)) for k, b in ordered_layers(pf.params, "policy")]
+    mean, std, layers = network_arrays(pf.params, "policy", jnp)
 
     def policy(obs: Any, key: Any) -> Any:
         return jnp.tanh(mlp(obs, mean, std, layers, jnp)[..., :env.action_size])
