@@ -1,6 +1,7 @@
 """Policies of several clips on the CPU: the policy file carries every clip, `play` grades each, and
 `--skill-sequence` switches the skill one-hot (mjxmimic.portable.skills). Random weights, no JAX."""
 
+import dataclasses
 import itertools
 import json
 
@@ -96,10 +97,59 @@ def test_skill_switches_come_at_the_configured_rate(character, two_clips):
 
     env = _switching_env(character, two_clips, 0.5)  # p = (1/30) / 0.5 per step
     env.reset_at(0.2)
-    switched = [int(step_lib.maybe_switch_skill(env.spec, env.motion._replace(event_seed=seed, steps=k),
+    switched = [int(step_lib.maybe_switch_skill(env.spec, env.motion._replace(event_seed=seed, steps=k), env.motion.time,
                                                 env.data.qpos, np.zeros((), bool), np).clip)
                 for seed in np.linspace(0.0, 1.0, 60, endpoint=False) for k in range(50)]
     assert np.mean(switched) == pytest.approx(1 / 15, abs=0.015)
+
+
+@pytest.fixture(scope="module")
+def walk_and_one_off(two_clips):
+    """The walk and a squat that does not loop (a one-off skill, as a backflip)."""
+    return [two_clips[0], dataclasses.replace(two_clips[1], name="squat_once", loop=False)]
+
+
+def test_a_one_off_skill_starts_where_the_cycle_ends_and_hands_back_at_its_end(character, walk_and_one_off):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED})
+    env = CpuEnv(config, character, walk_and_one_off)
+    walk, once = (float(d) for d in env.clip_durations)
+    env.reset_at(0.5 * walk)
+    obs = env.switch(1)
+    assert env.motion.clip == 0 and list(obs[-2:]) == [1.0, 0.0]  # asked for, not yet
+    times = [env.time]
+    while env.motion.clip == 0 and len(times) < 30:
+        s = env.step(np.zeros(character.action_size))
+        times.append(env.time)
+    assert times[-2] < walk <= times[-2] + 1.01 * env.control_dt  # the step that crossed the cycle's end
+    assert env.time == 0.0 and list(s.obs[-2:]) == [0.0, 1.0]
+    ref, _ = env.reference(env.time)
+    np.testing.assert_allclose(ref[0:2], env.data.qpos[0:2], atol=1e-6)
+    env.motion = env.motion._replace(time=np.float32(once - 0.5 * env.control_dt))  # near the squat's end
+    s = env.step(np.zeros(character.action_size))
+    assert env.motion.clip == 0 and env.time == 0.0  # the walk again, from its start
+    assert not s.failed and not s.done and not s.clip_end and list(s.obs[-2:]) == [1.0, 0.0]
+
+
+def test_training_switches_out_of_a_one_off_skill_at_its_end(character, walk_and_one_off):
+    env = _switching_env(character, walk_and_one_off, 100.0)  # rare switches, but always at the end
+    once = float(env.clip_durations[1])
+    env.reset_at(once - 0.5 * env.control_dt, clip=1)
+    s = env.step(np.zeros(character.action_size))
+    assert not s.done and not s.clip_end and env.motion.clip == 0 and env.time == 0.0
+
+
+def test_training_switches_into_a_one_off_skill_only_where_a_cycle_ends(character, walk_and_one_off):
+    from mjxmimic.envs import step as step_lib
+
+    env = _switching_env(character, walk_and_one_off, 1e-3)  # certain wherever allowed
+    walk = float(env.clip_durations[0])
+    env.reset_at(0.3 * walk)
+    mid = step_lib.maybe_switch_skill(env.spec, env.motion, np.float32(0.2 * walk), env.data.qpos,
+                                      np.zeros((), bool), np)
+    assert int(mid.clip) == 0
+    end = step_lib.maybe_switch_skill(env.spec, env.motion._replace(time=np.float32(1.01 * walk)),
+                                      np.float32(0.99 * walk), env.data.qpos, np.zeros((), bool), np)
+    assert int(end.clip) == 1 and float(end.time) == 0.0
 
 
 def test_skill_switching_is_training_only_and_needs_the_skill_observation():

@@ -62,6 +62,8 @@ class CpuEnv:
         self.terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0,
                                       goal=np.zeros(4, np.float32))
+        self.requested: int | None = None
+        self.resume_clip: int | None = None
 
     @property
     def time(self) -> float:
@@ -77,6 +79,7 @@ class CpuEnv:
         """Put the character in (qpos, qvel) at time t of clip number `clip` (the throw task's ball in
         its hand unless qpos has the ball's too); returns the observation."""
         self.physics.init(*step_lib.with_ball(self.spec, self.physics, np.asarray(qpos), np.asarray(qvel)))
+        self.requested = self.resume_clip = None  # the skill selector's pending switch (switch)
         self.motion = step_lib.Motion(clip=int(clip), time=np.float32(t), steps=int(steps),
                                       root_offset=np.array(root_offset, dtype=np.float64),
                                       event_seed=float(event_seed),
@@ -94,21 +97,43 @@ class CpuEnv:
         return self.set_state(qpos, qvel, t, event_seed=event_seed, clip=clip)
 
     def switch(self, clip: int) -> np.ndarray:
-        """Play clip number `clip` from here on (the skill selector, step.switched); returns the
-        observation, whose skill one-hot now names it."""
-        self.motion = step_lib.switched(self.spec, self.motion, int(clip), self.data.qpos, np)
-        self.motion = self.motion._replace(clip=int(self.motion.clip), time=np.float32(self.motion.time))
+        """Ask for clip number `clip` from here on (the skill selector): between cyclic clips at
+        once, at the same phase; into or out of a one-off clip (a backflip) where the playing
+        clip's cycle ends, from the new clip's start (step.may_switch, as training switches). A
+        one-off clip hands back to the skill played before it at its end unless another was asked
+        for. Returns the observation, whose skill one-hot names the clip now followed."""
+        self.requested = int(clip)
+        self._maybe_switch(float(self.motion.time))
         return self._observe(self.motion)
 
+    def _maybe_switch(self, t_before: float) -> bool:
+        motion, lib = self.motion, self.spec.lib
+        if self.requested is None and self.resume_clip is not None and step_lib.clip_ended(self.spec, motion.clip,
+                                                                                           motion.time, np):
+            self.requested = self.resume_clip
+        if self.requested is None or self.requested == motion.clip:
+            self.requested = None
+            return False
+        if not step_lib.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np):
+            return False
+        self.resume_clip = motion.clip if not lib.loop[self.requested] and lib.loop[motion.clip] else None
+        moved = step_lib.switched(self.spec, motion, self.requested, self.data.qpos, np)
+        self.motion = moved._replace(clip=int(moved.clip), time=np.float32(moved.time))
+        self.requested = None
+        return True
+
     def step(self, action: Any, external_force: Any = None, grade_paper: bool = False) -> Step:
+        t_before = float(self.motion.time)
         out = step_lib.control_step(self.spec, self.physics, self.data, self.motion,
                                     np.asarray(action, np.float64), self.terminations, external_force, grade_paper)
         self.motion = out.motion._replace(time=np.float32(out.motion.time), steps=int(out.motion.steps))
         failed, timeout = bool(out.failed), bool(out.truncation) and not bool(out.failed)
+        obs, clip_end, done = np.asarray(out.obs), bool(out.clip_end), bool(out.done)
+        if not failed and self._maybe_switch(t_before):
+            obs, done, clip_end = self._observe(self.motion), timeout, False
         metrics = {k: float(v) for k, v in out.metrics.items()}
-        return Step(obs=np.asarray(out.obs), reward=float(out.reward), done=bool(out.done),
-                    fell=bool(metrics["fell"]), failed=failed, truncated=timeout, clip_end=bool(out.clip_end),
-                    metrics=metrics)
+        return Step(obs=obs, reward=float(out.reward), done=done, fell=bool(metrics["fell"]), failed=failed,
+                    truncated=timeout, clip_end=clip_end, metrics=metrics)
 
     def eval_horizon(self, t: float, clip: int = 0) -> int:
         return int(step_lib.eval_horizon(self.spec, clip, np.float32(t), np))

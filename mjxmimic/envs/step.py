@@ -372,13 +372,31 @@ def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: A
 
 
 def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any) -> Motion:
-    """The motion state following clip number `clip` from here on (the skill selector): at the
-    same phase of its cycle, its reference root moved under the character (as at a new cycle: the
-    old clip's offset would leave a faster clip's reference metres away)."""
+    """The motion state following clip number `clip` from here on (the skill selector): between two
+    cyclic clips at the same phase, else from the new clip's start (may_switch says when); its
+    reference root moved under the character (as at a new cycle: the old clip's offset would leave
+    a faster clip's reference metres away)."""
     lib = spec.lib
-    t = (motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip]).astype(xp.float32)
+    both_loop = lib.loop[motion.clip] & lib.loop[clip]
+    t = xp.where(both_loop, motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip],
+                 0.0).astype(xp.float32)
     offset = root_under(spec, clip, t, qpos, xp).astype(xp.asarray(motion.root_offset).dtype)
     return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset)
+
+
+def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
+    """Whether clip number `clip`, gone from t_before to t_after, may hand over to clip `to` now:
+    at once between two cyclic clips; into or out of a one-off clip (a backflip) only where a cycle
+    of `clip` ends, or at its end, so that the one-off runs from its start to its end."""
+    lib = spec.lib
+    both_loop = lib.loop[clip] & lib.loop[to]
+    wrapped = motion_lib.cycle_index(lib, clip, t_after, xp) > motion_lib.cycle_index(lib, clip, t_before, xp)
+    return both_loop | wrapped | clip_ended(spec, clip, t_after, xp)
+
+
+def clip_ended(spec: Spec, clip: Any, t: Any, xp: Any) -> Any:
+    """A clip that does not loop has reached its end."""
+    return ~spec.lib.loop[clip] & (t >= spec.lib.duration[clip] - 1e-4)
 
 
 def root_under(spec: Spec, clip: Any, t: Any, qpos: Any, xp: Any) -> Any:
@@ -390,14 +408,20 @@ def root_under(spec: Spec, clip: Any, t: Any, qpos: Any, xp: Any) -> Any:
 SKILL_SWITCH_DRAWS = 1 << 24  # where the skill switches' draws start in the event seed's stream, two per step
 
 
-def maybe_switch_skill(spec: Spec, motion: Motion, qpos: Any, done: Any, xp: Any) -> Motion:
-    """env.skill_switch_s: with probability control_dt / skill_switch_s this step, the episode
-    goes on with another clip of the dataset (uniformly drawn), so that the selector learns the
-    switches a user makes at play time."""
-    count = spec.lib.duration.shape[0]
+def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, stopped: Any, xp: Any) -> Motion:
+    """env.skill_switch_s: the episode goes on with another clip of the dataset (uniformly drawn),
+    so that the selector learns the switches a user makes at play time, about every skill_switch_s
+    seconds: between cyclic clips with probability control_dt / skill_switch_s at each step; into a
+    one-off clip with probability cycle / skill_switch_s where a cycle ends; out of a one-off clip
+    always, at its end (the episode goes on)."""
+    lib, every = spec.lib, spec.config.env.skill_switch_s
+    count = lib.duration.shape[0]
     u = randomise.uniform(motion.event_seed, 2, xp, first=SKILL_SWITCH_DRAWS + 2 * motion.steps)
     other = (motion.clip + 1 + xp.floor(u[1] * (count - 1)).astype(xp.asarray(motion.clip).dtype)) % count
-    flip = (u[0] < spec.control_dt / spec.config.env.skill_switch_s) & ~done
+    chance = xp.where(lib.loop[motion.clip] & lib.loop[other], spec.control_dt / every,
+                      xp.minimum(1.0, lib.duration[motion.clip] / every))
+    chance = xp.where(clip_ended(spec, motion.clip, motion.time, xp), 1.0, chance)
+    flip = (u[0] < chance) & may_switch(spec, motion.clip, other, t_before, motion.time, xp) & ~stopped
     moved = switched(spec, motion, other, qpos, xp)
     return motion._replace(clip=xp.where(flip, moved.clip, motion.clip), time=xp.where(flip, moved.time, motion.time),
                            root_offset=xp.where(flip, moved.root_offset, motion.root_offset))
@@ -472,14 +496,18 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         failed = failed | flag
     steps = motion.steps + 1
     timeout = steps >= spec.max_steps
-    clip_end = ~lib.loop[clip] & (t >= lib.duration[clip] - 1e-4)
+    clip_end = clip_ended(spec, clip, t, xp)
+    switching = env.skill_switch_s > 0 and lib.duration.shape[0] > 1
+    if switching:  # a one-off clip's end hands over to another clip (maybe_switch_skill)
+        clip_end = xp.zeros((), bool)
     done = failed | timeout | clip_end
     r = xp.where(failed, 0.0, r)
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
+    t_before = motion.time
     motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
-    if env.skill_switch_s > 0 and lib.duration.shape[0] > 1:
-        motion = maybe_switch_skill(spec, motion, qpos, done, xp)
+    if switching:
+        motion = maybe_switch_skill(spec, motion, t_before, qpos, done, xp)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}

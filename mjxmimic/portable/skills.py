@@ -1,6 +1,7 @@
 """The skill selector at play time: `--skill-sequence "walk:4,run:4,walk:4"` switches the clip that a
-policy trained on a dataset (with the skill one-hot in its observation) follows, at the same phase
-of the new clip's cycle, without resetting the character. No JAX."""
+policy trained on a dataset (with the skill one-hot in its observation) follows, without resetting
+the character: between cyclic clips at once, at the same phase; into or out of a one-off clip (a
+backflip) where the playing cycle ends (CpuEnv.switch). No JAX."""
 
 from __future__ import annotations
 
@@ -71,8 +72,10 @@ def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], seque
     for index, ((clip, seconds), steps) in enumerate(zip(sequence, segment_steps(env, sequence), strict=True)):
         if index > 0:
             obs = env.switch(clip)
-        rewards, pose = [], []
-        for _ in range(steps):
+        rewards, pose, started = [], [], None
+        for k in range(steps):
+            if started is None and env.motion.clip == clip:
+                started = k * env.control_dt
             s = env.step(policy(obs))
             rewards.append(s.metrics["reward/imitation"])
             pose.append(s.metrics["error/pose"])
@@ -82,7 +85,8 @@ def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], seque
             if s.failed:
                 fell = True
                 break
-        segments.append({"skill": env.clips[clip].name, "seconds": seconds, "survived_s": len(rewards) * env.control_dt,
+        segments.append({"skill": env.clips[clip].name, "seconds": seconds, "switched_after_s": started,
+                         "survived_s": len(rewards) * env.control_dt,
                          "imitation_reward": float(np.mean(rewards)), "pose_error_rad": float(np.mean(pose))})
         if fell:
             break
