@@ -105,7 +105,7 @@ def test_skill_switches_come_at_the_configured_rate(character, two_clips):
 
 @pytest.fixture(scope="module")
 def walk_and_one_off(two_clips):
-    """The walk and a squat that does not loop (a one-off skill, as a backflip)."""
+    """The walk and a squat that does not loop (a one-off skill, as a getup or a kick)."""
     return [two_clips[0], dataclasses.replace(two_clips[1], name="squat_once", loop=False)]
 
 

@@ -98,7 +98,7 @@ class CpuEnv:
 
     def switch(self, clip: int) -> np.ndarray:
         """Ask for clip number `clip` from here on (the skill selector): between cyclic clips at
-        once, at the same phase; into or out of a one-off clip (a backflip) where the playing
+        once, at the same phase; into or out of a one-off clip (a getup, a kick) where the playing
         clip's cycle ends, from the new clip's start (step.may_switch, as training switches). A
         one-off clip hands back to the skill played before it at its end unless another was asked
         for. Returns the observation, whose skill one-hot names the clip now followed."""

@@ -386,7 +386,7 @@ def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any) -> Motio
 
 def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
     """Whether clip number `clip`, gone from t_before to t_after, may hand over to clip `to` now:
-    at once between two cyclic clips; into or out of a one-off clip (a backflip) only where a cycle
+    at once between two cyclic clips; into or out of a one-off clip (a getup, a kick) only where a cycle
     of `clip` ends, or at its end, so that the one-off runs from its start to its end."""
     lib = spec.lib
     both_loop = lib.loop[clip] & lib.loop[to]

@@ -1,7 +1,7 @@
 """The skill selector at play time: `--skill-sequence "walk:4,run:4,walk:4"` switches the clip that a
 policy trained on a dataset (with the skill one-hot in its observation) follows, without resetting
 the character: between cyclic clips at once, at the same phase; into or out of a one-off clip (a
-backflip) where the playing cycle ends (CpuEnv.switch). No JAX."""
+getup, a kick) where the playing cycle ends (CpuEnv.switch). No JAX."""
 
 from __future__ import annotations
 
