@@ -17,6 +17,7 @@ from mjxmimic import cli
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.envs import composite as gate_lib
+from mjxmimic.envs import entry as entry_lib
 from mjxmimic.envs import start_bank
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.motion import library as motion_lib
@@ -143,7 +144,7 @@ def test_entry_times(player):
     env = player.env
     dt = env.control_dt
     def features(clip, t):
-        return gate_lib.pose_features(env.physics.kinematics(*motion_lib.sample(env.spec.lib, clip, np.float32(t))), np)
+        return entry_lib.pose_features(env.physics.kinematics(*motion_lib.sample(env.spec.lib, clip, np.float32(t))), np)
 
     for clip in (0, 1):
         for k in (3, 17, 30):

@@ -87,16 +87,25 @@ def test_skill_selector_and_max_of_clips_reward(two_clip_env):
 
 
 @pytest.mark.slow
-def test_training_switches_the_skill_on_mjx(character, tmp_path):
+@pytest.mark.parametrize("entry", ["phase", "nearest"])
+def test_training_switches_the_skill_on_mjx(character, tmp_path, entry):
+    from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.envs.mjx_env import make_env
+    from mjxmimic.motion.clip import load_clip_source
 
     path = _write(tmp_path, {"clips": ["slow_walk", "squat"]})
-    env = make_env(make_config("cpu", {"clip.name": str(path), "env.action_mode": "residual", "physics.backend": "jax",
-                                       "env.observations": "phase,root_height,bodies,skill",
-                                       "env.skill_switch_s": 1.0 / 30}))  # a switch every step
+    overrides = {"env.action_mode": "residual", "env.observations": "phase,root_height,bodies,skill",
+                 "env.skill_switch_s": 1.0 / 30, "env.skill_switch_entry": entry}  # a switch every step
+    env = make_env(make_config("cpu", {"clip.name": str(path), "physics.backend": "jax", **overrides}))
     state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.2, 0)
     nxt = jax.jit(env.transition)(state, jnp.zeros(env.action_size))
     np.testing.assert_array_equal(np.asarray(nxt.obs[-2:]), [0.0, 1.0])  # now the squat's one-hot
+    # the same switch on MuJoCo C enters the squat at the same time
+    cpu = CpuEnv(make_config("cpu", overrides), character,
+                 [load_clip_source("slow_walk", character), load_clip_source("squat", character)])
+    cpu.reset_at(0.2, clip=0)
+    cpu.step(np.zeros(character.action_size))
+    assert cpu.motion.clip == 1 and float(nxt.info["time"]) == pytest.approx(cpu.time, abs=1e-5)
 
 
 @pytest.mark.slow

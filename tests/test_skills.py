@@ -152,6 +152,20 @@ def test_training_switches_into_a_one_off_skill_only_where_a_cycle_ends(characte
     assert int(end.clip) == 1 and float(end.time) == 0.0
 
 
+def test_nearest_entry_enters_where_the_reference_pose_is_nearest(character, two_clips):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED,
+                                            "env.skill_switch_entry": "nearest"})
+    env = CpuEnv(config, character, two_clips)
+    t = 12 * env.control_dt  # a grid time of the squat
+    env.reset_at(t, clip=1)  # the character in the squat's reference state at t
+    env.switch(0)
+    assert env.motion.clip == 0
+    env.switch(1)  # no step in between: the squat's nearest pose is the one the character is in
+    assert env.motion.clip == 1 and env.time == pytest.approx(t, abs=1e-6)
+    with pytest.raises(config_lib.UserError, match="env.skill_switch_entry"):
+        config_lib.make_config("cpu", {"env.skill_switch_entry": "closest"})
+
+
 def test_skill_switching_is_training_only_and_needs_the_skill_observation():
     config = config_lib.make_config("cpu", {"env.observations": SKILLED, "env.skill_switch_s": 2.0})
     assert config_lib.evaluation_config(config).env.skill_switch_s == 0.0

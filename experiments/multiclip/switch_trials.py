@@ -3,36 +3,24 @@ MuJoCo C: play skill A from its start for 1 s plus 0 to 36 control steps (every 
 (`CpuEnv.switch`, the rule of `mjxmimic play --skill-sequence` and of training with
 env.skill_switch_s: at once between cyclic clips, else where A's cycle ends), then count the control
 steps from the switch until a fall (120 = still up 4 s after it; -1 = fell before it). With
-`nearest`, B is entered at once at its reference pose nearest the character's (the composite gate's
-rule) instead.
+`nearest`, B is entered at its reference pose nearest the character's instead of the same phase
+(env.skill_switch_entry=nearest).
 
     python experiments/multiclip/switch_trials.py runs/NAME/policy.npz [nearest]
 """
 import sys
 
-import numpy as np
-
-from mjxmimic.core.config import evaluation_config
-from mjxmimic.envs import composite as gate_lib
-from mjxmimic.envs import step as step_lib
+from mjxmimic.core.config import apply_overrides, evaluation_config
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.runs.folder import load_policy_file
 
 pf = load_policy_file(sys.argv[1])
-nearest = sys.argv[2:] == ["nearest"]
+entry = {"env.skill_switch_entry": "nearest"} if sys.argv[2:] == ["nearest"] else {}
 clips = pf.clips()
 names = [c.name for c in clips]
-env = CpuEnv(evaluation_config(pf.config()), pf.character(), clips, pf.weights())
+env = CpuEnv(evaluation_config(apply_overrides(pf.config(), entry)), pf.character(), clips, pf.weights())
 policy = pf.policy()
-gate = gate_lib.make_gate(env.spec, env.physics.kinematics, 0.0)
 UP = 120
-
-
-def enter_nearest(b: int) -> np.ndarray:
-    qpos, qvel = env.data.qpos.copy(), env.data.qvel.copy()
-    t = np.float32(gate_lib.entry_times(gate, env.physics.kinematics(qpos, qvel), np)[b])
-    env.motion = env.motion._replace(clip=b, time=t, root_offset=step_lib.root_under(env.spec, b, t, qpos, np))
-    return env._observe(env.motion)
 
 
 def trial(a: int, b: int, extra: int) -> int:
@@ -42,7 +30,7 @@ def trial(a: int, b: int, extra: int) -> int:
         obs = s.obs
         if s.failed:
             return -1
-    obs = enter_nearest(b) if nearest else env.switch(b)
+    obs = env.switch(b)
     after = None
     for _ in range(10 * UP):
         after = 0 if after is None and env.motion.clip == b else after

@@ -77,10 +77,14 @@ class EnvConfig:
     start_states: str = ""
     start_states_fraction: float = 0.0
     # > 0: on a dataset with the skill observation, training switches an episode's clip to another
-    # (drawn uniformly) on average every this many seconds, at the same phase, its reference root
-    # moved under the character: a selector trained only on episodes of one clip falls when the
-    # user switches (experiments/README.md); 0 = never; training only
+    # (drawn uniformly) on average every this many seconds, as a user's switch at play time
+    # (mjxmimic.envs.step.may_switch), its reference root moved under the character: a selector
+    # trained only on episodes of one clip falls when the user switches (experiments/README.md);
+    # 0 = never; training only
     skill_switch_s: float = 0.0
+    # where a switch between cyclic clips enters the new one, in training and at play time: "phase"
+    # (the same phase) or "nearest" (its reference pose nearest the character's, mjxmimic.envs.entry)
+    skill_switch_entry: str = "phase"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -388,6 +392,7 @@ def validate(config: Config) -> None:
         (env.skill_switch_s >= 0, "env.skill_switch_s", "must be >= 0 (seconds; 0 = off)"),
         (env.skill_switch_s == 0 or "skill" in env.observations.split(","), "env.skill_switch_s",
          "needs the skill observation (env.observations=...,skill)"),
+        (env.skill_switch_entry in ("phase", "nearest"), "env.skill_switch_entry", "must be 'phase' or 'nearest'"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),

@@ -36,6 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mjxmimic.core.kinematics import ROOT_BODY, Kin
+from mjxmimic.envs import entry as entry_lib
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
@@ -44,7 +45,6 @@ from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import reward as reward_terms
 
 FINISHED_EPS = 1e-4  # the clip-end tolerance of the control step
-VELOCITY_WEIGHT = 0.1  # seconds: body velocities count as the positions they reach in 0.1 s
 
 
 class Gate(NamedTuple):
@@ -68,44 +68,15 @@ class Decision(NamedTuple):
     pose_error: Any  # mean joint angle (rad) from the active expert's reference, aligned to the character
 
 
-def pose_features(k: Kin, xp: Any) -> Any:
-    """What nearest-pose matching compares: each body's position, x and z axes and (scaled)
-    linear velocity relative to the root, in the heading frame (the observation's 'bodies')."""
-    nb = k.xipos.shape[0] - 1
-    parts = xp.reshape(obs_terms.bodies(k, None, xp), (5, nb, 3))
-    return xp.concatenate([xp.reshape(parts[:3], (-1,)), VELOCITY_WEIGHT * xp.reshape(parts[3], (-1,))])
-
-
-def pose_grid(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin]) -> tuple[Any, Any, Any, Any]:
-    """Each clip's reference on a grid of control-step times (numpy; `kinematics` a numpy one):
-    (times (C, G), valid (C, G), pose features (C, G, D), root heights (C, G))."""
-    lib, dt = spec.lib, spec.control_dt
-    count = len(lib.duration)
-    grids = [np.arange(max(1, int(np.ceil(float(lib.duration[e]) / dt - 1e-6)))) * dt for e in range(count)]
-    g = max(len(x) for x in grids)
-    times = np.zeros((count, g), np.float32)
-    valid = np.zeros((count, g), bool)
-    heights = np.zeros((count, g), np.float32)
-    feats = None
-    for e, grid in enumerate(grids):
-        for i, t in enumerate(grid):
-            k = kinematics(*motion_lib.sample(lib, e, np.float32(t), np))
-            f = np.asarray(pose_features(k, np), np.float32)
-            if feats is None:
-                feats = np.zeros((count, g, f.shape[0]), np.float32)
-            times[e, i], valid[e, i], feats[e, i], heights[e, i] = t, True, f, k.xipos[ROOT_BODY, 2]
-    return times, valid, feats, heights
-
-
 def make_gate(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin], temperature: float) -> Gate:
     """The gate's constants (numpy) for the experts of `spec.lib`; `kinematics` a numpy one (the
     CPU physics'). Convert with `to_xp` for MJX."""
-    times, valid, feats, heights = pose_grid(spec, kinematics)
+    grid, heights = entry_lib.pose_grid(spec.lib, spec.control_dt, kinematics)
     loop = np.asarray(spec.lib.loop, bool)
-    standing = heights[loop[:, None] & valid]
+    standing = heights[loop[:, None] & grid.valid]
     if standing.size == 0:
         raise ValueError("a composite needs at least one looping (locomotion) expert")
-    return Gate(loop=loop, entry_times=times, entry_features=feats, entry_valid=valid,
+    return Gate(loop=loop, entry_times=grid.times, entry_features=grid.features, entry_valid=grid.valid,
                 temperature=float(temperature), stand_height=float(np.mean(standing)))
 
 
@@ -152,11 +123,7 @@ def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any
 
 def entry_times(gate: Gate, k: Kin, xp: Any) -> Any:
     """(E,) where each expert would start now: its grid time of the nearest reference pose."""
-    f = pose_features(k, xp)
-    d = xp.sum((gate.entry_features - f) ** 2, axis=-1)
-    d = xp.where(gate.entry_valid, d, xp.inf)
-    best = xp.argmin(d, axis=-1)
-    return xp.take_along_axis(gate.entry_times, best[:, None], axis=1)[:, 0]
+    return entry_lib.nearest_times(entry_lib.Entry(gate.entry_times, gate.entry_features, gate.entry_valid), k, xp)
 
 
 def tracking_error(spec: step_lib.Spec, physics: Physics, sim: Kin, qpos: Any, motion: step_lib.Motion,

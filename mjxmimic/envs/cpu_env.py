@@ -98,7 +98,7 @@ class CpuEnv:
 
     def switch(self, clip: int) -> np.ndarray:
         """Ask for clip number `clip` from here on (the skill selector): between cyclic clips at
-        once, at the same phase; into or out of a one-off clip (a getup, a kick) where the playing
+        once, at the same phase (or the nearest pose, env.skill_switch_entry); into or out of a one-off clip (a getup, a kick) where the playing
         clip's cycle ends, from the new clip's start (step.may_switch, as training switches). A
         one-off clip hands back to the skill played before it at its end unless another was asked
         for. Returns the observation, whose skill one-hot names the clip now followed."""
@@ -117,7 +117,8 @@ class CpuEnv:
         if not step_lib.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np):
             return False
         self.resume_clip = motion.clip if not lib.loop[self.requested] and lib.loop[motion.clip] else None
-        moved = step_lib.switched(self.spec, motion, self.requested, self.data.qpos, np)
+        qpos, qvel, _, _ = step_lib.split_ball(self.spec, self.data.qpos, self.data.qvel)
+        moved = step_lib.switched(self.spec, motion, self.requested, qpos, np, self.physics.kinematics(qpos, qvel))
         self.motion = moved._replace(clip=int(moved.clip), time=np.float32(moved.time))
         self.requested = None
         return True

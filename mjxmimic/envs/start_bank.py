@@ -21,7 +21,7 @@ from mjxmimic.core.character import Character
 from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.scene import Scene
-from mjxmimic.envs import composite as gate_lib
+from mjxmimic.envs import entry as entry_lib
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
@@ -61,13 +61,14 @@ def build(config: Config, character: Character, scene: Scene, clips: list[Any], 
     qpos, qvel = read(config.env.start_states, scene.nq, scene.nv)
     spec = step_lib.make_spec(config, character, scene, clips, np, weights)
     physics = CpuPhysics(scene, spec.layout, 1, config.env.torque_limit)
-    times, valid, feats, _ = gate_lib.pose_grid(spec, physics.kinematics)
+    grid, _ = entry_lib.pose_grid(spec.lib, spec.control_dt, physics.kinematics)
+    times, valid, feats = grid.times, grid.valid, grid.features
     limits = np.array([step_lib.start_time_range(spec, c, np) for c in range(len(clips))])
     valid = valid & (times < limits[:, None])  # as RSI: at least one control step of the clip left
     out_q, out_v = np.empty_like(qpos), np.empty_like(qvel)
     clip_of, time_of = np.zeros(len(qpos), np.int32), np.zeros(len(qpos), np.float32)
     for n, (q, v) in enumerate(zip(qpos, qvel, strict=True)):
-        f = np.asarray(gate_lib.pose_features(physics.kinematics(q, v), np))
+        f = np.asarray(entry_lib.pose_features(physics.kinematics(q, v), np))
         d = np.where(valid, np.sum((feats - f) ** 2, axis=-1), np.inf)
         c, g = np.unravel_index(int(np.argmin(d)), d.shape)
         clip_of[n], time_of[n] = c, times[c, g]

@@ -22,8 +22,10 @@ from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.layout import Layout, join_qpos, make_layout
 from mjxmimic.core import terrain as terrain_lib
-from mjxmimic.core.kinematics import ROOT_BODY, root_yaw
+from mjxmimic.core import forward_kinematics
+from mjxmimic.core.kinematics import ROOT_BODY, Kin, root_yaw
 from mjxmimic.core.scene import Ball, Scene, build_scene, fall_mask, sensor_geoms
+from mjxmimic.envs import entry as entry_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
@@ -68,6 +70,7 @@ class Spec(NamedTuple):
     heightmap_offsets: Any = None  # (rows * cols, 2) the heightmap's grid in the heading frame
     ball: Ball | None = None  # the throw task's ball: its state follows the character's in qpos and qvel
     start_bank: StartBank | None = None  # env.start_states, matched to the clips (mjxmimic.envs.start_bank)
+    switch_entry: entry_lib.Entry | None = None  # env.skill_switch_entry=nearest: the clips' entry grid
 
 
 class StartBank(NamedTuple):
@@ -115,6 +118,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         except ValueError as err:
             raise UserError(f"config key 'clip.fall_contact': {err}") from None
     lib = motion_lib.build_motion_lib(clips, character, weights)
+    entry = switch_entry(config, scene, lib, xp) if len(clips) > 1 else None
     if xp is not np:
         lib = lib._replace(**{k: xp.asarray(v) for k, v in lib._asdict().items() if k != "layout"})
     env, terrain = config.env, terrain_lib.from_config(config.terrain)  # its boxes stay on the host
@@ -137,7 +141,19 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         terrain=terrain,
         heightmap_offsets=None if terrain is None else xp.asarray(heightmap_grid(config)),
         ball=ball_of(config),
+        switch_entry=entry,
     )
+
+
+def switch_entry(config: Config, scene: Scene, lib: motion_lib.MotionLib, xp: Any) -> entry_lib.Entry | None:
+    """The clips' nearest-pose entry grid (`lib` in numpy) where the skill selector enters a clip
+    that way."""
+    if config.env.skill_switch_entry != "nearest":
+        return None
+    tree = forward_kinematics.read_tree(scene.model, scene.nbody)
+    grid, _ = entry_lib.pose_grid(lib, 1.0 / config.env.control_hz,
+                                  lambda q, v: forward_kinematics.kinematics(tree, q, v, np))
+    return entry_lib.to_xp(grid, xp)
 
 
 def ball_of(config: Config) -> Ball | None:
@@ -371,15 +387,19 @@ def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: A
     return xp.max(jax.vmap(against)(xp.arange(count)))
 
 
-def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any) -> Motion:
+def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any, sim: Kin | None = None) -> Motion:
     """The motion state following clip number `clip` from here on (the skill selector): between two
-    cyclic clips at the same phase, else from the new clip's start (may_switch says when); its
-    reference root moved under the character (as at a new cycle: the old clip's offset would leave
-    a faster clip's reference metres away)."""
+    cyclic clips at the same phase, or with env.skill_switch_entry=nearest at the reference pose
+    nearest the character's (`sim`, its kinematics now); else from the new clip's start (may_switch
+    says when). Its reference root is moved under the character (as at a new cycle: the old clip's
+    offset would leave a faster clip's reference metres away)."""
     lib = spec.lib
     both_loop = lib.loop[motion.clip] & lib.loop[clip]
-    t = xp.where(both_loop, motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip],
-                 0.0).astype(xp.float32)
+    if spec.switch_entry is not None:
+        cyclic = entry_lib.nearest_times(spec.switch_entry, sim, xp)[clip]
+    else:
+        cyclic = motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip]
+    t = xp.where(both_loop, cyclic, 0.0).astype(xp.float32)
     offset = root_under(spec, clip, t, qpos, xp).astype(xp.asarray(motion.root_offset).dtype)
     return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset)
 
@@ -408,7 +428,8 @@ def root_under(spec: Spec, clip: Any, t: Any, qpos: Any, xp: Any) -> Any:
 SKILL_SWITCH_DRAWS = 1 << 24  # where the skill switches' draws start in the event seed's stream, two per step
 
 
-def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, stopped: Any, xp: Any) -> Motion:
+def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, stopped: Any, xp: Any,
+                       sim: Kin | None = None) -> Motion:
     """env.skill_switch_s: the episode goes on with another clip of the dataset (uniformly drawn),
     so that the selector learns the switches a user makes at play time, about every skill_switch_s
     seconds: between cyclic clips with probability control_dt / skill_switch_s at each step; into a
@@ -422,7 +443,7 @@ def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, sto
                       xp.minimum(1.0, lib.duration[motion.clip] / every))
     chance = xp.where(clip_ended(spec, motion.clip, motion.time, xp), 1.0, chance)
     flip = (u[0] < chance) & may_switch(spec, motion.clip, other, t_before, motion.time, xp) & ~stopped
-    moved = switched(spec, motion, other, qpos, xp)
+    moved = switched(spec, motion, other, qpos, xp, sim)
     return motion._replace(clip=xp.where(flip, moved.clip, motion.clip), time=xp.where(flip, moved.time, motion.time),
                            root_offset=xp.where(flip, moved.root_offset, motion.root_offset))
 
@@ -507,7 +528,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     t_before = motion.time
     motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
     if switching:
-        motion = maybe_switch_skill(spec, motion, t_before, qpos, done, xp)
+        motion = maybe_switch_skill(spec, motion, t_before, qpos, done, xp, sim)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}
