@@ -216,6 +216,29 @@ def test_a_sequence_needs_several_clips_and_the_skill_observation(tmp_path, char
     assert "does not observe a skill" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("entry", ["phase", "nearest"])
+def test_switch_trials(skilled_file, capsys, entry):
+    assert cli.main(["play", str(skilled_file), "--switch-trials", "2", "--switch-entry", entry, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out["pairs"]) == {"slow_walk -> squat", "squat -> slow_walk"} and out["trials"] == 4
+    assert out["entry"] == entry
+    hold = round(out["hold_s"] * 30)
+    for row in out["pairs"].values():
+        steps = row["steps_after_switch"]
+        assert len(steps) == 2 and all(-1 <= x <= hold for x in steps)
+        assert row["held"] == sum(x == hold for x in steps)
+    assert out["held"] == sum(row["held"] for row in out["pairs"].values())
+
+
+def test_switch_trials_errors_are_one_line(skilled_file, tmp_path, character, two_clips, capsys):
+    assert cli.main(["play", str(skilled_file), "--switch-trials", "0"]) == 2
+    assert "--switch-trials 0: must be at least 1" in capsys.readouterr().err
+    one = policy_file.write_npz(_random_policy(character, two_clips[:1], "phase,root_height,bodies"),
+                                tmp_path / "one.npz")
+    assert cli.main(["play", str(one), "--switch-trials", "1"]) == 2
+    assert "--switch-trials needs a policy trained on a dataset" in capsys.readouterr().err
+
+
 def test_parse_sequence():
     assert parse_sequence("a:1,b:2.5,a:0.5", ["a", "b"]) == [(0, 1.0), (1, 2.5), (0, 0.5)]
 

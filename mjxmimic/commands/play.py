@@ -10,6 +10,7 @@ times are the MJX evaluation's own (carried in the file) unless --seed, --clip o
 than it ran ask for a fresh seeded draw. Reports NR, fall rate, survival, pose and end-effector
 errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
+--skill-sequence and --switch-trials play a dataset policy's skill selector (mjxmimic.portable.skills).
 --push runs DeepMimic's Table 6 push test instead (mjxmimic.portable.push_playback), as
 `mjxmimic eval RUN --push` does on MJX.
 A composite file (`mjxmimic compose`) plays one run of --seconds (optionally pushed with
@@ -46,6 +47,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a policy trained on a dataset with the skill observation: switch the skill it "
                              "follows, e.g. \"walk:4,run:4,walk:4\" (one run, no reset between skills)")
+    parser.add_argument("--switch-trials", type=int, default=None, metavar="N",
+                        help="a policy trained on a dataset with the skill observation: how often its switches "
+                             "hold (up 4 s after), over N switch moments for every ordered pair of skills")
+    parser.add_argument("--switch-entry", choices=["phase", "nearest"], default=None,
+                        help="where a switch between cyclic clips enters the next: the same phase or the "
+                             "nearest reference pose (default: the rule the policy was trained with)")
     composite = parser.add_argument_group("composite files (mjxmimic compose)")
     composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
     composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
@@ -190,6 +197,23 @@ def _skill_sequence(args: argparse.Namespace, pf, env) -> int:
     return 0
 
 
+def _switch_trials(args: argparse.Namespace, pf, env) -> int:
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.skills import switch_trials
+
+    if args.switch_trials < 1:
+        raise UserError(f"--switch-trials {args.switch_trials}: must be at least 1")
+    result = {"policy": str(pf.path), **switch_trials(env, pf.policy(), args.switch_trials)}
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"{pf.path}: switches that hold {result['hold_s']:g} s, {result['entry']} entry, MuJoCo CPU")
+    for pair, row in result["pairs"].items():
+        print(f"  {pair:<30} {row['held']:>3} of {args.switch_trials}")
+    print(f"  {'all pairs':<30} {result['held']:>3} of {result['trials']}")
+    return 0
+
+
 def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
     from mjxmimic.commands.evaluate import print_push_table
     from mjxmimic.core.errors import UserError
@@ -216,7 +240,7 @@ def run(args: argparse.Namespace) -> int:
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
 
-    from mjxmimic.core.config import evaluation_config
+    from mjxmimic.core.config import apply_overrides, evaluation_config
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import composite
     from mjxmimic.portable.playback import evaluate
@@ -242,16 +266,20 @@ def run(args: argparse.Namespace) -> int:
 
         clip = load_clip_source(args.clip, character, args.clips_dir)
     elif len(clips) > 1:
-        env = CpuEnv(evaluation_config(pf.config()), character, clips, pf.weights())
+        entry = {} if args.switch_entry is None else {"env.skill_switch_entry": args.switch_entry}
+        env = CpuEnv(evaluation_config(apply_overrides(pf.config(), entry)), character, clips, pf.weights())
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:
             return _skill_sequence(args, pf, env)
+        if args.switch_trials is not None:
+            return _switch_trials(args, pf, env)
         return _play_clips(args, pf, env, None)
     else:
         clip = clips[0]
-    if args.skill_sequence is not None:
-        raise UserError("--skill-sequence needs a policy trained on a dataset of clips; this one has one clip")
+    for flag, given in (("--skill-sequence", args.skill_sequence), ("--switch-trials", args.switch_trials)):
+        if given is not None:
+            raise UserError(f"{flag} needs a policy trained on a dataset of clips; this one has one clip")
     env = CpuEnv(evaluation_config(pf.config()), character, clip)
     policy = pf.policy()
     starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)

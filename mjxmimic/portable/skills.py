@@ -92,3 +92,42 @@ def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], seque
             break
     return {"segments": segments, "fell": fell, "survived_s": sum(s["survived_s"] for s in segments),
             "seconds": sum(s for _, s in sequence)}
+
+
+def switch_trials(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], moments: int = 10,
+                  lead_s: float = 1.0, hold_s: float = 4.0) -> dict[str, Any]:
+    """How often the selector's switches hold: for every ordered pair of skills (A, B), `moments`
+    runs that play A from its start for lead_s plus 0, 4, 8, ... control steps, ask for B
+    (CpuEnv.switch) and count the control steps from the switch to a fall; a switch holds when the
+    character is still up hold_s after it (-1: it fell before the switch came)."""
+    check_selectable(env)
+    hold, lead = round(hold_s / env.control_dt), round(lead_s / env.control_dt)
+
+    def trial(a: int, b: int, extra: int) -> int:
+        obs = env.reset_at(0.0, clip=a)
+        for _ in range(lead + extra):
+            s = env.step(policy(obs))
+            obs = s.obs
+            if s.failed:
+                return -1
+        obs, after = env.switch(b), None
+        for _ in range(env.max_steps + hold):
+            if after is None and env.motion.clip == b:
+                after = 0
+            s = env.step(policy(obs))
+            obs = s.obs
+            if s.failed:
+                return -1 if after is None else after
+            if after is not None:
+                after += 1
+                if after == hold:
+                    return hold
+        return -1
+
+    pairs = {}
+    for a, b in ((a, b) for a in range(len(env.clips)) for b in range(len(env.clips)) if a != b):
+        steps = [trial(a, b, 4 * k) for k in range(moments)]
+        pairs[f"{env.clips[a].name} -> {env.clips[b].name}"] = {"held": sum(x == hold for x in steps),
+                                                                "steps_after_switch": steps}
+    return {"pairs": pairs, "held": sum(p["held"] for p in pairs.values()), "trials": moments * len(pairs),
+            "hold_s": hold_s, "lead_s": lead_s, "entry": env.config.env.skill_switch_entry}
