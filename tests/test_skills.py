@@ -93,12 +93,13 @@ def test_training_switches_the_skill(character, two_clips):
 
 
 def test_skill_switches_come_at_the_configured_rate(character, two_clips):
-    from mjxmimic.envs import step as step_lib
+    from mjxmimic.envs.skill_switch import maybe_switch_skill
 
     env = _switching_env(character, two_clips, 0.5)  # p = (1/30) / 0.5 per step
     env.reset_at(0.2)
-    switched = [int(step_lib.maybe_switch_skill(env.spec, env.motion._replace(event_seed=seed, steps=k), env.motion.time,
-                                                env.data.qpos, np.zeros((), bool), np).clip)
+    sim = env.physics.kinematics(env.data.qpos, env.data.qvel)
+    switched = [int(maybe_switch_skill(env.spec, env.motion._replace(event_seed=seed, steps=k), env.motion.time,
+                                       env.data.qpos, np.zeros((), bool), np, sim).clip)
                 for seed in np.linspace(0.0, 1.0, 60, endpoint=False) for k in range(50)]
     assert np.mean(switched) == pytest.approx(1 / 15, abs=0.015)
 
@@ -139,16 +140,17 @@ def test_training_switches_out_of_a_one_off_skill_at_its_end(character, walk_and
 
 
 def test_training_switches_into_a_one_off_skill_only_where_a_cycle_ends(character, walk_and_one_off):
-    from mjxmimic.envs import step as step_lib
+    from mjxmimic.envs.skill_switch import maybe_switch_skill
 
     env = _switching_env(character, walk_and_one_off, 1e-3)  # certain wherever allowed
     walk = float(env.clip_durations[0])
     env.reset_at(0.3 * walk)
-    mid = step_lib.maybe_switch_skill(env.spec, env.motion, np.float32(0.2 * walk), env.data.qpos,
-                                      np.zeros((), bool), np)
+    sim = env.physics.kinematics(env.data.qpos, env.data.qvel)
+    mid = maybe_switch_skill(env.spec, env.motion, np.float32(0.2 * walk), env.data.qpos,
+                             np.zeros((), bool), np, sim)
     assert int(mid.clip) == 0
-    end = step_lib.maybe_switch_skill(env.spec, env.motion._replace(time=np.float32(1.01 * walk)),
-                                      np.float32(0.99 * walk), env.data.qpos, np.zeros((), bool), np)
+    end = maybe_switch_skill(env.spec, env.motion._replace(time=np.float32(1.01 * walk)),
+                             np.float32(0.99 * walk), env.data.qpos, np.zeros((), bool), np, sim)
     assert int(end.clip) == 1 and float(end.time) == 0.0
 
 

@@ -78,7 +78,7 @@ class EnvConfig:
     start_states_fraction: float = 0.0
     # > 0: on a dataset with the skill observation, training switches an episode's clip to another
     # (drawn uniformly) on average every this many seconds, as a user's switch at play time
-    # (mjxmimic.envs.step.may_switch), its reference root moved under the character: a selector
+    # (mjxmimic.envs.skill_switch), its reference root moved under the character: a selector
     # trained only on episodes of one clip falls when the user switches (experiments/README.md);
     # 0 = never; training only
     skill_switch_s: float = 0.0

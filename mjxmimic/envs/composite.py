@@ -37,6 +37,7 @@ import numpy as np
 
 from mjxmimic.core.kinematics import ROOT_BODY, Kin
 from mjxmimic.envs import entry as entry_lib
+from mjxmimic.envs import skill_switch
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
@@ -44,16 +45,12 @@ from mjxmimic.task import goals
 from mjxmimic.task import observation as obs_terms
 from mjxmimic.task import reward as reward_terms
 
-FINISHED_EPS = 1e-4  # the clip-end tolerance of the control step
-
 
 class Gate(NamedTuple):
     """Per-composite constants, arrays in the step's xp (from `make_gate`)."""
 
     loop: Any  # (E,) bool
-    entry_times: Any  # (E, G) candidate entry times of each expert (a grid of control steps)
-    entry_features: Any  # (E, G, D) the reference's pose features at those times
-    entry_valid: Any  # (E, G) bool: grid points within the clip
+    entry: entry_lib.Entry  # each expert's candidate entry times (a grid of control steps) and poses there
     temperature: float  # static
     stand_height: float  # mean root height of the looping experts' references (m)
 
@@ -76,13 +73,11 @@ def make_gate(spec: step_lib.Spec, kinematics: Callable[[Any, Any], Kin], temper
     standing = heights[loop[:, None] & grid.valid]
     if standing.size == 0:
         raise ValueError("a composite needs at least one looping (locomotion) expert")
-    return Gate(loop=loop, entry_times=grid.times, entry_features=grid.features, entry_valid=grid.valid,
-                temperature=float(temperature), stand_height=float(np.mean(standing)))
+    return Gate(loop=loop, entry=grid, temperature=float(temperature), stand_height=float(np.mean(standing)))
 
 
 def to_xp(gate: Gate, xp: Any) -> Gate:
-    return gate._replace(**{k: xp.asarray(v) for k, v in gate._asdict().items()
-                            if k in ("loop", "entry_times", "entry_features", "entry_valid")})
+    return gate._replace(loop=xp.asarray(gate.loop), entry=entry_lib.to_xp(gate.entry, xp))
 
 
 def probabilities(values: Any, temperature: float, allowed: Any, xp: Any) -> Any:
@@ -107,11 +102,6 @@ def sample(p: Any, u: Any, xp: Any) -> Any:
     return xp.minimum(index, last)
 
 
-def finished(gate: Gate, lib: motion_lib.MotionLib, motion: step_lib.Motion, xp: Any) -> Any:
-    """The active expert is non-looping and its clip has ended."""
-    return ~gate.loop[motion.clip] & (motion.time >= lib.duration[motion.clip] - FINISHED_EPS)
-
-
 def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any:
     """(E, obs): every expert's observation of the state `k`, each with its own clip's phase at its
     candidate time."""
@@ -123,7 +113,7 @@ def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any
 
 def entry_times(gate: Gate, k: Kin, xp: Any) -> Any:
     """(E,) where each expert would start now: its grid time of the nearest reference pose."""
-    return entry_lib.nearest_times(entry_lib.Entry(gate.entry_times, gate.entry_features, gate.entry_valid), k, xp)
+    return entry_lib.nearest_times(gate.entry, k, xp)
 
 
 def tracking_error(spec: step_lib.Spec, physics: Physics, sim: Kin, qpos: Any, motion: step_lib.Motion,
@@ -145,7 +135,7 @@ def decide(spec: step_lib.Spec, gate: Gate, physics: Physics, qpos: Any, qvel: A
     times = xp.where(active, motion.time, entry_times(gate, k, xp)).astype(xp.float32)
     obs = expert_observations(spec, k, times, xp)
     values = xp.asarray(values_of(obs), xp.float32)
-    allowed = ~(active & finished(gate, spec.lib, motion, xp))
+    allowed = ~(active & motion_lib.ended(spec.lib, motion.clip, motion.time, xp))  # no immediate repeat
     p = probabilities(values, gate.temperature, allowed, xp)
     return Decision(choice=sample(p, u, xp), times=times, obs=obs, values=values, probabilities=p,
                     root_height=k.xipos[ROOT_BODY, 2], pose_error=tracking_error(spec, physics, k, qpos, motion, xp))
@@ -157,6 +147,6 @@ def switch(spec: step_lib.Spec, motion: step_lib.Motion, decision: Decision, qpo
     choice = decision.choice
     same = choice == motion.clip
     t = decision.times[choice]
-    offset = xp.where(same, motion.root_offset, step_lib.root_under(spec, choice, t, qpos, xp).astype(motion.root_offset.dtype))
+    offset = xp.where(same, motion.root_offset, skill_switch.root_under(spec, choice, t, qpos, xp).astype(motion.root_offset.dtype))
     return motion._replace(clip=xp.where(same, motion.clip, choice).astype(xp.asarray(motion.clip).dtype),
                            time=xp.where(same, motion.time, t).astype(xp.float32), root_offset=offset)

@@ -18,6 +18,7 @@ import numpy as np
 from mjxmimic.core.character import Character
 from mjxmimic.core import terrain as terrain_lib
 from mjxmimic.core.config import Config
+from mjxmimic.envs import skill_switch
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
@@ -98,9 +99,8 @@ class CpuEnv:
 
     def switch(self, clip: int) -> np.ndarray:
         """Ask for clip number `clip` from here on (the skill selector): between cyclic clips at
-        once, at the same phase (or the nearest pose, env.skill_switch_entry); into or out of a one-off clip (a getup, a kick) where the playing
-        clip's cycle ends, from the new clip's start (step.may_switch, as training switches). A
-        one-off clip hands back to the skill played before it at its end unless another was asked
+        once; into or out of a one-off clip (a getup, a kick) where the playing clip's cycle ends
+        (mjxmimic.envs.skill_switch, as training switches). A one-off clip hands back to the skill played before it at its end unless another was asked
         for. Returns the observation, whose skill one-hot names the clip now followed."""
         self.requested = int(clip)
         self._maybe_switch(float(self.motion.time))
@@ -108,17 +108,16 @@ class CpuEnv:
 
     def _maybe_switch(self, t_before: float) -> bool:
         motion, lib = self.motion, self.spec.lib
-        if self.requested is None and self.resume_clip is not None and step_lib.clip_ended(self.spec, motion.clip,
-                                                                                           motion.time, np):
+        if self.requested is None and self.resume_clip is not None and motion_lib.ended(lib, motion.clip, motion.time):
             self.requested = self.resume_clip
         if self.requested is None or self.requested == motion.clip:
             self.requested = None
             return False
-        if not step_lib.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np):
+        if not skill_switch.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np):
             return False
         self.resume_clip = motion.clip if not lib.loop[self.requested] and lib.loop[motion.clip] else None
         qpos, qvel, _, _ = step_lib.split_ball(self.spec, self.data.qpos, self.data.qvel)
-        moved = step_lib.switched(self.spec, motion, self.requested, qpos, np, self.physics.kinematics(qpos, qvel))
+        moved = skill_switch.switched(self.spec, motion, self.requested, qpos, self.physics.kinematics(qpos, qvel), np)
         self.motion = moved._replace(clip=int(moved.clip), time=np.float32(moved.time))
         self.requested = None
         return True

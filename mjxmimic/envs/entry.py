@@ -54,11 +54,17 @@ def pose_grid(lib: motion_lib.MotionLib, control_dt: float,
     return Entry(times=times, features=feats, valid=valid), heights
 
 
+def of_clip(entry: Entry, clip: Any) -> Entry:
+    """The grid of clip number `clip` alone (`nearest_times` of it is a scalar)."""
+    return Entry(*(a[clip] for a in entry))
+
+
 def nearest_times(entry: Entry, k: Kin, xp: Any) -> Any:
-    """(C,) where each clip would start now: its grid time of the reference pose nearest `k`'s."""
+    """(C,) where each clip would start now: its grid time of the reference pose nearest `k`'s (a
+    scalar for one clip's grid, `of_clip`)."""
     d = xp.sum((entry.features - pose_features(k, xp)) ** 2, axis=-1)
     best = xp.argmin(xp.where(entry.valid, d, xp.inf), axis=-1)
-    return xp.take_along_axis(entry.times, best[:, None], axis=1)[:, 0]
+    return xp.take_along_axis(entry.times, best[..., None], axis=-1)[..., 0]
 
 
 def to_xp(entry: Entry, xp: Any) -> Entry:

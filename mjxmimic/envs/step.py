@@ -22,10 +22,10 @@ from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.layout import Layout, join_qpos, make_layout
 from mjxmimic.core import terrain as terrain_lib
-from mjxmimic.core import forward_kinematics
-from mjxmimic.core.kinematics import ROOT_BODY, Kin, root_yaw
+from mjxmimic.core.kinematics import ROOT_BODY, root_yaw
 from mjxmimic.core.scene import Ball, Scene, build_scene, fall_mask, sensor_geoms
 from mjxmimic.envs import entry as entry_lib
+from mjxmimic.envs import skill_switch
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.backend import Physics
 from mjxmimic.physics.pd import action_to_targets
@@ -118,7 +118,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         except ValueError as err:
             raise UserError(f"config key 'clip.fall_contact': {err}") from None
     lib = motion_lib.build_motion_lib(clips, character, weights)
-    entry = switch_entry(config, scene, lib, xp) if len(clips) > 1 else None
+    entry = skill_switch.entry_grid(config, scene, lib, xp) if len(clips) > 1 else None
     if xp is not np:
         lib = lib._replace(**{k: xp.asarray(v) for k, v in lib._asdict().items() if k != "layout"})
     env, terrain = config.env, terrain_lib.from_config(config.terrain)  # its boxes stay on the host
@@ -143,17 +143,6 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
         ball=ball_of(config),
         switch_entry=entry,
     )
-
-
-def switch_entry(config: Config, scene: Scene, lib: motion_lib.MotionLib, xp: Any) -> entry_lib.Entry | None:
-    """The clips' nearest-pose entry grid (`lib` in numpy) where the skill selector enters a clip
-    that way."""
-    if config.env.skill_switch_entry != "nearest":
-        return None
-    tree = forward_kinematics.read_tree(scene.model, scene.nbody)
-    grid, _ = entry_lib.pose_grid(lib, 1.0 / config.env.control_hz,
-                                  lambda q, v: forward_kinematics.kinematics(tree, q, v, np))
-    return entry_lib.to_xp(grid, xp)
 
 
 def ball_of(config: Config) -> Ball | None:
@@ -387,67 +376,6 @@ def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: A
     return xp.max(jax.vmap(against)(xp.arange(count)))
 
 
-def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, xp: Any, sim: Kin | None = None) -> Motion:
-    """The motion state following clip number `clip` from here on (the skill selector): between two
-    cyclic clips at the same phase, or with env.skill_switch_entry=nearest at the reference pose
-    nearest the character's (`sim`, its kinematics now); else from the new clip's start (may_switch
-    says when). Its reference root is moved under the character (as at a new cycle: the old clip's
-    offset would leave a faster clip's reference metres away)."""
-    lib = spec.lib
-    both_loop = lib.loop[motion.clip] & lib.loop[clip]
-    if spec.switch_entry is not None:
-        cyclic = entry_lib.nearest_times(spec.switch_entry, sim, xp)[clip]
-    else:
-        cyclic = motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip]
-    t = xp.where(both_loop, cyclic, 0.0).astype(xp.float32)
-    offset = root_under(spec, clip, t, qpos, xp).astype(xp.asarray(motion.root_offset).dtype)
-    return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset)
-
-
-def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
-    """Whether clip number `clip`, gone from t_before to t_after, may hand over to clip `to` now:
-    at once between two cyclic clips; into or out of a one-off clip (a getup, a kick) only where a cycle
-    of `clip` ends, or at its end, so that the one-off runs from its start to its end."""
-    lib = spec.lib
-    both_loop = lib.loop[clip] & lib.loop[to]
-    wrapped = motion_lib.cycle_index(lib, clip, t_after, xp) > motion_lib.cycle_index(lib, clip, t_before, xp)
-    return both_loop | wrapped | clip_ended(spec, clip, t_after, xp)
-
-
-def clip_ended(spec: Spec, clip: Any, t: Any, xp: Any) -> Any:
-    """A clip that does not loop has reached its end."""
-    return ~spec.lib.loop[clip] & (t >= spec.lib.duration[clip] - 1e-4)
-
-
-def root_under(spec: Spec, clip: Any, t: Any, qpos: Any, xp: Any) -> Any:
-    """The root offset (2,) that puts clip `clip`'s reference at time t under the character."""
-    ref_qpos, _ = motion_lib.sample(spec.lib, clip, t, xp)
-    return qpos[0:2] - ref_qpos[0:2]
-
-
-SKILL_SWITCH_DRAWS = 1 << 24  # where the skill switches' draws start in the event seed's stream, two per step
-
-
-def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, stopped: Any, xp: Any,
-                       sim: Kin | None = None) -> Motion:
-    """env.skill_switch_s: the episode goes on with another clip of the dataset (uniformly drawn),
-    so that the selector learns the switches a user makes at play time, about every skill_switch_s
-    seconds: between cyclic clips with probability control_dt / skill_switch_s at each step; into a
-    one-off clip with probability cycle / skill_switch_s where a cycle ends; out of a one-off clip
-    always, at its end (the episode goes on)."""
-    lib, every = spec.lib, spec.config.env.skill_switch_s
-    count = lib.duration.shape[0]
-    u = randomise.uniform(motion.event_seed, 2, xp, first=SKILL_SWITCH_DRAWS + 2 * motion.steps)
-    other = (motion.clip + 1 + xp.floor(u[1] * (count - 1)).astype(xp.asarray(motion.clip).dtype)) % count
-    chance = xp.where(lib.loop[motion.clip] & lib.loop[other], spec.control_dt / every,
-                      xp.minimum(1.0, lib.duration[motion.clip] / every))
-    chance = xp.where(clip_ended(spec, motion.clip, motion.time, xp), 1.0, chance)
-    flip = (u[0] < chance) & may_switch(spec, motion.clip, other, t_before, motion.time, xp) & ~stopped
-    moved = switched(spec, motion, other, qpos, xp, sim)
-    return motion._replace(clip=xp.where(flip, moved.clip, motion.clip), time=xp.where(flip, moved.time, motion.time),
-                           root_offset=xp.where(flip, moved.root_offset, motion.root_offset))
-
-
 def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, action: Any,
                  terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False) -> Result:
     """One control step (the module docstring); no reset. `external_force` (nbody, 6) is added to
@@ -517,10 +445,9 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         failed = failed | flag
     steps = motion.steps + 1
     timeout = steps >= spec.max_steps
-    clip_end = clip_ended(spec, clip, t, xp)
     switching = env.skill_switch_s > 0 and lib.duration.shape[0] > 1
-    if switching:  # a one-off clip's end hands over to another clip (maybe_switch_skill)
-        clip_end = xp.zeros((), bool)
+    # with switches, a one-off clip's end hands over to another clip (skill_switch.maybe_switch_skill)
+    clip_end = xp.zeros((), bool) if switching else motion_lib.ended(lib, clip, t, xp)
     done = failed | timeout | clip_end
     r = xp.where(failed, 0.0, r)
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
@@ -528,7 +455,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     t_before = motion.time
     motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
     if switching:
-        motion = maybe_switch_skill(spec, motion, t_before, qpos, done, xp, sim)
+        motion = skill_switch.maybe_switch_skill(spec, motion, t_before, qpos, done, xp, sim)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}

@@ -223,6 +223,14 @@ def phase(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> Any:
     return xp.where(lib.loop[clip], p - xp.floor(p), xp.clip(p, 0.0, 1.0))
 
 
+END_TOLERANCE_S = 1e-4  # a clip time this close to a one-off clip's end counts as its end
+
+
+def ended(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> Any:
+    """A clip that does not loop has reached its end at time t."""
+    return ~lib.loop[clip] & (t >= lib.duration[clip] - END_TOLERANCE_S)
+
+
 def cycle_index(lib: MotionLib, clip: Any, t: Any, xp: Any = np) -> Any:
     """Which cycle of a cyclic clip time `t` falls in (0, 1, ...); 0 for a clip that does not loop."""
     return xp.where(lib.loop[clip], xp.floor(t / lib.duration[clip]), 0.0)

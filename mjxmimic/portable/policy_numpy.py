@@ -75,6 +75,11 @@ def mlp(obs: Any, mean: Any, std: Any, layers: list[tuple[Any, Any]], xp: Any = 
     return h @ kernel + bias
 
 
+def deterministic_action(logits: Any, action_size: int, xp: Any = np) -> Any:
+    """The deterministic action in [-1, 1] from the policy network's output: tanh(loc)."""
+    return xp.tanh(logits[..., :action_size])
+
+
 def encoder_layers(params: Mapping[str, Any], net: str, heightmap_shape: Any) -> list[tuple[Any, Any]]:
     """[(kernel, bias)] of conv_0..2 and encoder of network `net`: a terrain network's heightmap
     encoder, [] for a plain MLP."""
@@ -178,4 +183,4 @@ class NumpyPolicy:
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Deterministic action(s) in [-1, 1]; obs may be batched (..., observation_size)."""
-        return np.tanh(self.logits(obs)[..., : self.action_size])
+        return deterministic_action(self.logits(obs), self.action_size)

@@ -21,7 +21,7 @@ from mjxmimic.envs import composite as gate_lib
 from mjxmimic.envs import step as step_lib
 from mjxmimic.envs.mjx_env import ImitationEnv
 from mjxmimic.portable.composite import COMPOSITE_TERMINATIONS, Composite, Player
-from mjxmimic.portable.policy_numpy import mlp, network_arrays
+from mjxmimic.portable.policy_numpy import deterministic_action, mlp, network_arrays
 from mjxmimic.task import push_protocol
 from mjxmimic.task import recovery as protocol
 
@@ -40,7 +40,7 @@ def _networks(c: Composite) -> tuple[Callable[[Any], Any], Callable[[Any], Any]]
                           for e, (mean, std, layers, _) in enumerate(nets)])
 
     def actions_of(obs: Any) -> Any:
-        return jnp.stack([jnp.tanh(mlp(obs[e], mean, std, layers["policy"], jnp)[:act])
+        return jnp.stack([deterministic_action(mlp(obs[e], mean, std, layers["policy"], jnp), act, jnp)
                           for e, (mean, std, layers, act) in enumerate(nets)])
 
     return values_of, actions_of

@@ -82,14 +82,14 @@ def evaluate_policy_file(path: Path, episodes: int | None = None, seed: int | No
     import jax.numpy as jnp
 
     from mjxmimic.envs.mjx_env import ImitationEnv
-    from mjxmimic.portable.policy_numpy import mlp, network_arrays
+    from mjxmimic.portable.policy_numpy import deterministic_action, mlp, network_arrays
     from mjxmimic.runs.evaluate import evaluate
 
     env = ImitationEnv(config, pf.character(), pf.clips(), pf.weights())
     mean, std, layers = network_arrays(pf.params, "policy", jnp)
 
     def policy(obs: Any, key: Any) -> Any:
-        return jnp.tanh(mlp(obs, mean, std, layers, jnp)[..., :env.action_size])
+        return deterministic_action(mlp(obs, mean, std, layers, jnp), env.action_size, jnp)
 
     say(f"compiling and running {episodes or config.run.eval_episodes} episodes")
     result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed, episodes=episodes)
