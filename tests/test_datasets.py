@@ -95,7 +95,8 @@ def test_training_switches_the_skill_on_mjx(character, tmp_path, entry):
 
     path = _write(tmp_path, {"clips": ["slow_walk", "squat"]})
     overrides = {"env.action_mode": "residual", "env.observations": "phase,root_height,bodies,skill",
-                 "env.skill_switch_s": 1.0 / 30, "env.skill_switch_entry": entry}  # a switch every step
+                 "env.skill_switch_s": 1.0 / 30, "env.skill_switch_entry": entry,  # a switch every step
+                 "env.skill_switch_settle_s": 0.1}
     env = make_env(make_config("cpu", {"clip.name": str(path), "physics.backend": "jax", **overrides}))
     state = jax.jit(env.reset_at)(jax.random.PRNGKey(0), 0.2, 0)
     nxt = jax.jit(env.transition)(state, jnp.zeros(env.action_size))
@@ -106,6 +107,8 @@ def test_training_switches_the_skill_on_mjx(character, tmp_path, entry):
     cpu.reset_at(0.2, clip=0)
     cpu.step(np.zeros(character.action_size))
     assert cpu.motion.clip == 1 and float(nxt.info["time"]) == pytest.approx(cpu.time, abs=1e-5)
+    assert int(nxt.info["settle"]) == cpu.motion.settle == 3
+    np.testing.assert_allclose(np.asarray(nxt.info["root_offset"]), cpu.motion.root_offset, atol=1e-4)
 
 
 @pytest.mark.slow

@@ -168,6 +168,29 @@ def test_nearest_entry_enters_where_the_reference_pose_is_nearest(character, two
         config_lib.make_config("cpu", {"env.skill_switch_entry": "closest"})
 
 
+def test_a_switch_settles_before_the_pose_rule_applies(character, two_clips):
+    from mjxmimic.task import termination
+
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED,
+                                            "env.skill_switch_settle_s": 0.2, "env.pose_termination_m": 0.05})
+    env = CpuEnv(config, character, two_clips)
+    env.terminations = termination.training_list(0.05)  # training's rules: a body 5 cm off ends it
+    env.reset_at(0.1)
+    env.switch(1)
+    assert env.motion.settle == 6  # 0.2 s of 30 Hz control steps
+    for k in range(6):
+        s = env.step(np.ones(character.action_size))  # far from the squat
+        assert not s.failed and env.motion.settle == 5 - k
+        ref, _ = env.reference(env.time)  # the reference root follows the character
+        np.testing.assert_allclose(ref[0:2], env.data.qpos[0:2], atol=1e-6)
+    settled = env.motion.root_offset.copy()
+    s = env.step(np.ones(character.action_size))
+    assert s.failed and s.metrics["lost_track"] == 1.0  # the rule applies again
+    np.testing.assert_array_equal(env.motion.root_offset, settled)  # the offset is kept from here on
+    with pytest.raises(config_lib.UserError, match="env.skill_switch_settle_s"):
+        config_lib.make_config("cpu", {"env.skill_switch_settle_s": -1.0})
+
+
 def test_skill_switching_is_training_only_and_needs_the_skill_observation():
     config = config_lib.make_config("cpu", {"env.observations": SKILLED, "env.skill_switch_s": 2.0})
     assert config_lib.evaluation_config(config).env.skill_switch_s == 0.0

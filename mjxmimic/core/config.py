@@ -85,6 +85,11 @@ class EnvConfig:
     # where a switch between cyclic clips enters the new one, in training and at play time: "phase"
     # (the same phase) or "nearest" (its reference pose nearest the character's, mjxmimic.envs.entry)
     skill_switch_entry: str = "phase"
+    # > 0: for this many seconds after a switch the reference root follows the character
+    # horizontally and a pose deviation does not end a training episode, so that a switch to a
+    # clip of another speed (run to walk) can be learnt: without it the 1 m rule ends such an
+    # episode within 0.3 to 0.7 s (experiments/README.md); 0 = off
+    skill_switch_settle_s: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -393,6 +398,7 @@ def validate(config: Config) -> None:
         (env.skill_switch_s == 0 or "skill" in env.observations.split(","), "env.skill_switch_s",
          "needs the skill observation (env.observations=...,skill)"),
         (env.skill_switch_entry in ("phase", "nearest"), "env.skill_switch_entry", "must be 'phase' or 'nearest'"),
+        (env.skill_switch_settle_s >= 0, "env.skill_switch_settle_s", "must be >= 0 (seconds; 0 = off)"),
         (env.push_interval_s > env.push_duration_s + env.push_interval_jitter_s, "env.push_interval_s",
          "must be longer than env.push_duration_s + env.push_interval_jitter_s"),
         (_scale_range_ok(env.friction_range), "env.friction_range", "must be two factors lo,hi with 0 < lo <= hi (finite)"),

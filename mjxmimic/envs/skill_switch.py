@@ -5,7 +5,8 @@ Between two cyclic clips a switch comes at once, at the same phase or (env.skill
 nearest) at the next clip's reference pose nearest the character's. Into or out of a one-off clip
 (a getup, a kick) it waits for the playing clip's cycle, or the one-off itself, to end, and the next
 clip starts from its beginning. The reference root is moved under the character either way (as at
-a new cycle: the old clip's offset would leave a faster clip's reference metres away).
+a new cycle: the old clip's offset would leave a faster clip's reference metres away), and with
+env.skill_switch_settle_s it follows the character for that long (mjxmimic.envs.step).
 """
 
 from __future__ import annotations
@@ -54,7 +55,10 @@ def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, sim: Kin, xp: Any
         cyclic = motion_lib.phase(lib, motion.clip, motion.time, xp) * lib.duration[clip]
     t = xp.where(lib.loop[motion.clip] & lib.loop[clip], cyclic, 0.0).astype(xp.float32)
     offset = root_under(spec, clip, t, qpos, xp).astype(xp.asarray(motion.root_offset).dtype)
-    return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset)
+    settle = xp.asarray(round(spec.config.env.skill_switch_settle_s / spec.control_dt))
+    settle = settle.astype(xp.asarray(motion.settle).dtype)
+    return motion._replace(clip=xp.asarray(clip).astype(xp.asarray(motion.clip).dtype), time=t, root_offset=offset,
+                           settle=settle)
 
 
 def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
@@ -86,4 +90,5 @@ def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, sto
     flip = (u[0] < chance) & _may_switch(lib, motion.clip, other, t_before, motion.time, ended, xp) & ~stopped
     moved = switched(spec, motion, other, qpos, sim, xp)
     return motion._replace(clip=xp.where(flip, moved.clip, motion.clip), time=xp.where(flip, moved.time, motion.time),
-                           root_offset=xp.where(flip, moved.root_offset, motion.root_offset))
+                           root_offset=xp.where(flip, moved.root_offset, motion.root_offset),
+                           settle=xp.where(flip, moved.settle, motion.settle))

@@ -47,6 +47,7 @@ class Motion(NamedTuple):
     event_seed: Any  # in [0, 1), drawn at reset: what varies events (pushes, randomised physics) between episodes
     goal: Any  # (4,) a task's episode state (strike: target x, y, z and whether it was hit; throw:
     # target x, y, whether the ball landed, its distance from the target); else zeros
+    settle: Any = 0  # control steps left in which a skill switch settles (env.skill_switch_settle_s)
 
 
 class Spec(NamedTuple):
@@ -252,7 +253,7 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     qpos, qvel = with_ball(spec, physics, qpos, qvel)
     state = physics.init(qpos, qvel)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
-                    event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp))
+                    event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp), settle=xp.zeros((), xp.int32))
     q, v, ball_q, ball_v = split_ball(spec, qpos, qvel)
     return state, motion, observe(spec, physics, physics.kinematics(q, v), motion, (ball_q, ball_v))
 
@@ -404,6 +405,9 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     offset = motion.root_offset
     if spec.config.reward.sync_root_position and not task.name:  # a task's reference follows the character
         offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
+    settling = motion.settle > 0
+    if env.skill_switch_settle_s > 0:  # the reference root follows the character
+        offset = xp.where(settling, qpos[0:2] - ref_qpos[0:2], offset)
     ref = physics.kinematics(*graded_reference(spec, ref_qpos, ref_qvel, qpos, offset, xp))
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
     if spec.config.reward.combine == "max":
@@ -439,6 +443,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
                                   pose_termination_m=env.pose_termination_m,
                                   pit_z=-spec.config.terrain.fall_margin_m if spec.terrain is not None else None)
     fired = {name: termination.TERMS[name](outcome, xp) for name in terminations}
+    if "pose_deviation" in fired:
+        fired["pose_deviation"] = fired["pose_deviation"] & ~settling
     bad = fired.get("bad_state", xp.zeros((), bool))
     failed = xp.zeros((), bool)
     for flag in fired.values():
@@ -453,7 +459,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
     t_before = motion.time
-    motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
+    motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state,
+                             settle=xp.maximum(motion.settle - 1, 0))
     if switching:
         motion = skill_switch.maybe_switch_skill(spec, motion, t_before, qpos, done, xp, sim)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
