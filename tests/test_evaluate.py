@@ -31,6 +31,7 @@ def test_perfect_tracking_scores_one_on_a_looping_clip():
     env = StandInEnv()
     out = evaluate(env, perfect_policy(env), CONFIG, seed=0, samples=123, train_seconds=4.5)
     assert out["nr"] == pytest.approx(1.0, abs=1e-4)
+    assert out["nr_paper_discounted"] == pytest.approx(1.0, abs=1e-4)
     assert out["fall_rate"] == 0.0
     assert out["survival_s"] == pytest.approx(20.0, abs=1e-6)  # 600 steps, beyond the env's own time limit
     assert out["mean_horizon_steps"] == 600
@@ -70,18 +71,21 @@ def test_nr_is_mean_of_per_episode_return_over_horizon():
     n = CONFIG.run.eval_episodes
     t0 = jax.random.uniform(k_time, (n,), minval=0.0, maxval=env.clip_duration)
     resets = jax.random.split(k_reset, n)
-    nrs = []
+    nrs, discounted = [], []
     for i in range(n):
         state = env.reset_at(resets[i], t0[i])
         horizon = max(int(env.eval_horizon(t0[i])), 1)
-        total = 0.0
-        for _ in range(horizon):
+        total, total_discounted = 0.0, 0.0
+        for k in range(horizon):
             state = env.transition(state, half(state.obs, None))
             total += float(state.reward)
+            total_discounted += 0.95 ** k * float(state.reward)  # the stand-in grades both forms alike
             if float(state.metrics["fell"]) > 0:
                 break
         nrs.append(total / horizon)
+        discounted.append(total_discounted / sum(0.95 ** k for k in range(horizon)))
     assert out["nr"] == pytest.approx(float(np.mean(nrs)), abs=1e-5)
+    assert out["nr_paper_discounted"] == pytest.approx(float(np.mean(discounted)), abs=1e-5)
 
 
 def test_evaluator_matches_evaluate_and_compiles_once():

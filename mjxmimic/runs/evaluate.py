@@ -5,9 +5,9 @@ t_i ~ U[0, clip duration) from the reference state (RSI), runs the deterministic
 the mean) through `env.transition(..., evaluation=True)` (no auto-reset, none of the training-only
 terminations) and is counted by `mjxmimic.task.nr`, the rule the CPU player shares: NR under the
 training reward (`nr`, the released five-term form unless the run says otherwise) and under the
-paper's four-term reward (`nr_paper`) from the same episodes, fall rate, survival, errors. With
-a task, both NRs grade the imitation reward alone, and the task's return and success rate
-(mjxmimic.task.goals) are reported beside them.
+paper's four-term reward (`nr_paper`; discounted, `nr_paper_discounted`) from the same episodes,
+fall rate, survival, errors. With a task, both NRs grade the imitation reward alone, and the
+task's return and success rate (mjxmimic.task.goals) are reported beside them.
 """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def _finish(result: dict, seconds: float, samples: int | None, train_seconds: fl
     return result
 
 
-PER_CLIP_FIELDS = ("nr", "nr_paper", "fall_rate")
+PER_CLIP_FIELDS = ("nr", "nr_paper", "nr_paper_discounted", "fall_rate")
 
 
 def per_clip(env, run_clip: Callable[[jax.Array], dict]) -> dict:

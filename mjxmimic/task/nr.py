@@ -6,6 +6,11 @@ otherwise; the env's own time limit does not cut it short. Its first failed step
 state the simulator lost) ends it, and every remaining step counts 0. NR = mean over episodes of
 sum(r_t) / H. Fall rate, survival time (steps run, the failing one included) and the pose and
 end-effector errors pooled over survived steps are reported beside it.
+
+DeepMimic's text does not say whether Table 2's return is discounted (DEEPMIMIC.md), so the
+paper-form NR is also reported discounted (`nr_paper_discounted`): sum(0.95^t r_t) over the
+horizon, over the same sum with r_t = 1. With the original's discount 0.95 it weighs mostly the
+first second after the start, where RSI puts the character on the reference.
 """
 
 from __future__ import annotations
@@ -14,13 +19,14 @@ from typing import Any
 
 import numpy as np
 
-FIELDS = ("reward", "reward_paper", "steps", "failed", "ok_steps", "pose", "ee")
+FIELDS = ("reward", "reward_paper", "reward_paper_discounted", "steps", "failed", "ok_steps", "pose", "ee")
+PAPER_DISCOUNT = 0.95  # the original's PPO discount
 
 
 def start(shape: Any, xp: Any) -> dict[str, Any]:
     zeros = xp.zeros(shape)
-    return {"reward": zeros, "reward_paper": zeros, "steps": zeros, "failed": zeros > 1,
-            "ok_steps": zeros, "pose": zeros, "ee": zeros, "alive": zeros < 1}
+    return {"reward": zeros, "reward_paper": zeros, "reward_paper_discounted": zeros, "steps": zeros,
+            "failed": zeros > 1, "ok_steps": zeros, "pose": zeros, "ee": zeros, "alive": zeros < 1}
 
 
 def add_step(acc: dict[str, Any], k: Any, horizon: Any, reward: Any, reward_paper: Any, failed: Any,
@@ -32,6 +38,8 @@ def add_step(acc: dict[str, Any], k: Any, horizon: Any, reward: Any, reward_pape
     return {
         "reward": acc["reward"] + xp.where(active, reward, 0.0),
         "reward_paper": acc["reward_paper"] + xp.where(active, reward_paper, 0.0),
+        "reward_paper_discounted": acc["reward_paper_discounted"]
+        + xp.where(active, PAPER_DISCOUNT ** k * reward_paper, 0.0),
         "steps": acc["steps"] + active,
         "failed": acc["failed"] | fail,
         "ok_steps": acc["ok_steps"] + ok,
@@ -52,6 +60,8 @@ def summarize(acc: dict[str, Any], horizon: Any, control_dt: float) -> dict[str,
         "nr": float(per_episode.mean()),
         "nr_std": float(per_episode.std()),
         "nr_paper": float((acc["reward_paper"] / horizon).mean()),
+        "nr_paper_discounted": float((acc["reward_paper_discounted"] * (1 - PAPER_DISCOUNT)
+                                      / (1 - PAPER_DISCOUNT ** horizon)).mean()),
         "fall_rate": float(acc["failed"].mean()),
         "survival_s": float(acc["steps"].mean() * control_dt),
         "pose_error_rad": float(acc["pose"].sum() / ok),
