@@ -47,6 +47,7 @@ PAPER_PUSH_N = {"walk": (240, 300), "run": (720, 300), "backflip": (440, 100), "
 _ROWS = [
     ("nr", "NR, the run's reward form (released: five terms)", "{:.4f}"),
     ("nr_paper", "NR, the paper's four-term reward", "{:.4f}"),
+    ("nr_paper_discounted", "the same, discounted by 0.95", "{:.4f}"),
     ("success_rate", "task success rate", "{:.3f}"),
     ("task_return", "task return (mean r_task per step)", "{:.4f}"),
     ("speed_ratio", "heading: speed along the goal / commanded", "{:.3f}"),

@@ -138,7 +138,8 @@ def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
             starts, label = env.start_times(n, seed, index).tolist(), f"seeded draw (numpy, seed {seed})"
         result = evaluate(env, policy, starts, clip=index)
         mjx_nr = (ev.get(clip.name) or {}).get("nr")
-        rows[clip.name] = {"nr": result["nr"], "nr_paper": result["nr_paper"], "fall_rate": result["fall_rate"],
+        rows[clip.name] = {"nr": result["nr"], "nr_paper": result["nr_paper"],
+                           "nr_paper_discounted": result["nr_paper_discounted"], "fall_rate": result["fall_rate"],
                            "survival_s": result["survival_s"], "episodes": result["episodes"], "starts": label,
                            "mjx_nr": mjx_nr, "ratio": result["nr"] / mjx_nr if mjx_nr else None}
     if args.json:
@@ -312,6 +313,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     rows = [
         ("sim-to-sim NR (CPU)", f"{out['nr']:.4f}  (+- {out['nr_std']:.4f} over episodes)"),
+        ("paper form", f"{out['nr_paper']:.4f}  (discounted by 0.95: {out['nr_paper_discounted']:.4f})"),
         ("training NR (MJX)", "n/a (not in the file)" if mjx_nr is None
          else f"{mjx_nr:.4f}  ({out['mjx_episodes']} episodes)"),
         ("ratio CPU / MJX", "n/a" if out["ratio"] is None else f"{out['ratio']:.3f}"),
