@@ -264,6 +264,64 @@ def test_switch_trials_errors_are_one_line(skilled_file, tmp_path, character, tw
     assert "--switch-trials needs a policy trained on a dataset" in capsys.readouterr().err
 
 
+def _trials(rates: dict[str, float]) -> dict:
+    """`--switch-trials 10 --json`'s shape with the given hold rates."""
+    held = {pair: round(10 * r) for pair, r in rates.items()}
+    return {"pairs": {pair: {"held": n, "steps_after_switch": [120] * n + [5] * (10 - n)} for pair, n in held.items()}}
+
+
+def test_best_routes_pass_through_a_skill_where_that_holds_more_often():
+    from mjxmimic.portable.skills import best_routes
+
+    names = ["walk", "run", "backflip"]
+    trials = _trials({"walk -> run": 1.0, "walk -> backflip": 1.0, "run -> walk": 0.7, "run -> backflip": 0.0,
+                      "backflip -> walk": 0.7, "backflip -> run": 0.2})
+    assert best_routes(trials, names) == {(1, 2): 0, (2, 1): 0}  # run <-> backflip through walk
+    with pytest.raises(config_lib.UserError, match="pair 'walk -> fly' is not a switch between"):
+        best_routes(_trials({"walk -> fly": 1.0}), names)
+    with pytest.raises(config_lib.UserError, match="no switch pairs"):
+        best_routes({}, names)
+
+
+@pytest.fixture(scope="module")
+def three_clips(character, two_clips):
+    return [*two_clips, load_clip_source("wave", character)]
+
+
+def test_a_routed_switch_plays_the_skill_between_for_a_second(character, three_clips):
+    from mjxmimic.envs.cpu_env import ROUTE_VIA_S
+
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED})
+    env = CpuEnv(config, character, three_clips)
+    env.terminations = ()  # no falls: this is about the order of the skills
+    env.routes = {(0, 1): 2}
+    env.reset_at(0.3)
+    obs = env.switch(1)
+    assert env.motion.clip == 2 and list(obs[-3:]) == [0.0, 0.0, 1.0]  # the wave first
+    steps = round(ROUTE_VIA_S / env.control_dt)
+    clips = []
+    for _ in range(steps):
+        env.step(np.zeros(character.action_size))
+        clips.append(int(env.motion.clip))
+    assert clips == [2] * (steps - 1) + [1]  # then the squat
+    env.switch(0)  # no route asked for: at once
+    assert env.motion.clip == 0
+
+
+def test_switch_routes_from_a_trials_file(tmp_path, character, three_clips, capsys):
+    three = policy_file.write_npz(_random_policy(character, three_clips, SKILLED), tmp_path / "three.npz")
+    routes = tmp_path / "trials.json"
+    routes.write_text(json.dumps(_trials({"slow_walk -> squat": 0.1, "slow_walk -> wave": 0.9,
+                                          "wave -> squat": 0.9, "squat -> slow_walk": 1.0})))
+    assert cli.main(["play", str(three), "--switch-trials", "1", "--switch-routes", str(routes), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["routes"] == {"slow_walk -> squat": "wave"}
+    bad = tmp_path / "bad.json"
+    bad.write_text("[1, 2")
+    assert cli.main(["play", str(three), "--switch-trials", "1", "--switch-routes", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--switch-routes" in err and "cannot read it as JSON" in err
+
+
 def test_parse_sequence():
     assert parse_sequence("a:1,b:2.5,a:0.5", ["a", "b"]) == [(0, 1.0), (1, 2.5), (0, 0.5)]
 

@@ -10,7 +10,8 @@ times are the MJX evaluation's own (carried in the file) unless --seed, --clip o
 than it ran ask for a fresh seeded draw. Reports NR, fall rate, survival, pose and end-effector
 errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
---skill-sequence and --switch-trials play a dataset policy's skill selector (mjxmimic.portable.skills).
+--skill-sequence and --switch-trials play a dataset policy's skill selector (mjxmimic.portable.skills);
+--switch-routes TRIALS.json sends the switches that those trials saw fall through a third skill.
 --push runs DeepMimic's Table 6 push test instead (mjxmimic.portable.push_playback), as
 `mjxmimic eval RUN --push` does on MJX.
 A composite file (`mjxmimic compose`) plays one run of --seconds (optionally pushed with
@@ -53,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--switch-entry", choices=["phase", "nearest"], default=None,
                         help="where a switch between cyclic clips enters the next: the same phase or the "
                              "nearest reference pose (default: the rule the policy was trained with)")
+    parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
+                        help="route switches that the trials (the JSON of --switch-trials N --json) saw "
+                             "fall through a third skill, for 1 s, where that held more often")
     composite = parser.add_argument_group("composite files (mjxmimic compose)")
     composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
     composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
@@ -212,7 +216,22 @@ def _switch_trials(args: argparse.Namespace, pf, env) -> int:
     for pair, row in result["pairs"].items():
         print(f"  {pair:<30} {row['held']:>3} of {args.switch_trials}")
     print(f"  {'all pairs':<30} {result['held']:>3} of {result['trials']}")
+    for pair, via in result["routes"].items():
+        print(f"  routed: {pair} through {via}")
     return 0
+
+
+def _routes(path: Path, names: list[str]) -> dict[tuple[int, int], int]:
+    from mjxmimic.core.errors import UserError
+    from mjxmimic.portable.skills import best_routes
+
+    try:
+        trials = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise UserError(f"--switch-routes {path}: cannot read it as JSON ({e.__class__.__name__})") from None
+    if not isinstance(trials, dict):
+        raise UserError(f"--switch-routes {path}: expected the JSON object of --switch-trials N --json")
+    return best_routes(trials, names, f"--switch-routes {path}")
 
 
 def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
@@ -269,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
     elif len(clips) > 1:
         entry = {} if args.switch_entry is None else {"env.skill_switch_entry": args.switch_entry}
         env = CpuEnv(evaluation_config(apply_overrides(pf.config(), entry)), character, clips, pf.weights())
+        if args.switch_routes is not None:
+            env.routes = _routes(args.switch_routes, names)
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:
@@ -278,7 +299,8 @@ def run(args: argparse.Namespace) -> int:
         return _play_clips(args, pf, env, None)
     else:
         clip = clips[0]
-    for flag, given in (("--skill-sequence", args.skill_sequence), ("--switch-trials", args.switch_trials)):
+    for flag, given in (("--skill-sequence", args.skill_sequence), ("--switch-trials", args.switch_trials),
+                        ("--switch-routes", args.switch_routes)):
         if given is not None:
             raise UserError(f"{flag} needs a policy trained on a dataset of clips; this one has one clip")
     env = CpuEnv(evaluation_config(pf.config()), character, clip)

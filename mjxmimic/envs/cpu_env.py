@@ -27,6 +27,9 @@ from mjxmimic.task import nr as nr_rule
 from mjxmimic.task import termination
 
 
+ROUTE_VIA_S = 1.0  # how long a routed switch plays the skill it passes through
+
+
 class Step(NamedTuple):
     obs: np.ndarray
     reward: float
@@ -65,6 +68,9 @@ class CpuEnv:
                                       goal=np.zeros(4, np.float32))
         self.requested: int | None = None
         self.resume_clip: int | None = None
+        # (from, to) -> the skill a switch passes through first (mjxmimic.portable.skills.best_routes)
+        self.routes: dict[tuple[int, int], int] = {}
+        self.then: tuple[int, int] | None = None  # a routed switch's target, control steps left before it
 
     @property
     def time(self) -> float:
@@ -80,7 +86,7 @@ class CpuEnv:
         """Put the character in (qpos, qvel) at time t of clip number `clip` (the throw task's ball in
         its hand unless qpos has the ball's too); returns the observation."""
         self.physics.init(*step_lib.with_ball(self.spec, self.physics, np.asarray(qpos), np.asarray(qvel)))
-        self.requested = self.resume_clip = None  # the skill selector's pending switch (switch)
+        self.requested = self.resume_clip = self.then = None  # the skill selector's pending switch (switch)
         self.motion = step_lib.Motion(clip=int(clip), time=np.float32(t), steps=int(steps),
                                       root_offset=np.array(root_offset, dtype=np.float64),
                                       event_seed=float(event_seed),
@@ -101,13 +107,21 @@ class CpuEnv:
         """Ask for clip number `clip` from here on (the skill selector): between cyclic clips at
         once; into or out of a one-off clip (a getup, a kick) where the playing clip's cycle ends
         (mjxmimic.envs.skill_switch, as training switches). A one-off clip hands back to the skill played before it at its end unless another was asked
-        for. Returns the observation, whose skill one-hot names the clip now followed."""
-        self.requested = int(clip)
+        for. With `routes`, a switch passes through another skill for ROUTE_VIA_S first. Returns the
+        observation, whose skill one-hot names the clip now followed."""
+        via = self.routes.get((int(self.motion.clip), int(clip)))
+        self.then = None if via is None else (int(clip), max(1, round(ROUTE_VIA_S / self.control_dt)))
+        self.requested = int(clip) if via is None else via
         self._maybe_switch(float(self.motion.time))
         return self._observe(self.motion)
 
     def _maybe_switch(self, t_before: float) -> bool:
         motion, lib = self.motion, self.spec.lib
+        if self.then is not None and self.requested is None:  # on a routed switch's way
+            target, left = self.then
+            self.then = None if left <= 1 else (target, left - 1)
+            if self.then is None:
+                self.requested = target
         if self.requested is None and self.resume_clip is not None and motion_lib.ended(lib, motion.clip, motion.time):
             self.requested = self.resume_clip
         if self.requested is None or self.requested == motion.clip:

@@ -1,7 +1,8 @@
 """The skill selector at play time: `--skill-sequence "walk:4,run:4,walk:4"` switches the clip that a
 policy trained on a dataset (with the skill one-hot in its observation) follows, without resetting
 the character: between cyclic clips at once, at the same phase; into or out of a one-off clip (a
-getup, a kick) where the playing cycle ends (CpuEnv.switch). No JAX."""
+getup, a kick) where the playing cycle ends (CpuEnv.switch); with routes measured by the switch
+trials, through a third skill where that holds more often. No JAX."""
 
 from __future__ import annotations
 
@@ -94,6 +95,30 @@ def play_sequence(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], seque
             "seconds": sum(s for _, s in sequence)}
 
 
+def best_routes(trials: dict[str, Any], names: list[str],
+                source: str = "the switch trials") -> dict[tuple[int, int], int]:
+    """From `play --switch-trials N --json` output: for each ordered pair of skills (a, b), the skill c
+    to pass through (CpuEnv.routes) where the measured rates make a -> c -> b likelier to hold than a
+    -> b (the product of the two rates, as if independent)."""
+    rate = {}
+    for pair, row in (trials.get("pairs") or {}).items():
+        a, sep, b = pair.partition(" -> ")
+        if not sep or a not in names or b not in names or not row.get("steps_after_switch"):
+            raise UserError(f"{source}: pair {pair!r} is not a switch between the policy's skills "
+                            f"({', '.join(names)})")
+        rate[names.index(a), names.index(b)] = row["held"] / len(row["steps_after_switch"])
+    if not rate:
+        raise UserError(f"{source}: no switch pairs (expected the JSON of "
+                        "`mjxmimic play POLICY --switch-trials N --json`)")
+    routes = {}
+    for (a, b), direct in rate.items():
+        via = max((c for c in range(len(names)) if c not in (a, b)),
+                  key=lambda c: rate.get((a, c), 0.0) * rate.get((c, b), 0.0), default=None)
+        if via is not None and rate.get((a, via), 0.0) * rate.get((via, b), 0.0) > direct:
+            routes[a, b] = via
+    return routes
+
+
 def switch_trials(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], moments: int = 10,
                   lead_s: float = 1.0, hold_s: float = 4.0) -> dict[str, Any]:
     """How often the selector's switches hold: for every ordered pair of skills (A, B), `moments`
@@ -129,5 +154,7 @@ def switch_trials(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], momen
         steps = [trial(a, b, 4 * k) for k in range(moments)]
         pairs[f"{env.clips[a].name} -> {env.clips[b].name}"] = {"held": sum(x == hold for x in steps),
                                                                 "steps_after_switch": steps}
+    routes = {f"{env.clips[a].name} -> {env.clips[b].name}": env.clips[c].name
+              for (a, b), c in env.routes.items()}
     return {"pairs": pairs, "held": sum(p["held"] for p in pairs.values()), "trials": moments * len(pairs),
-            "hold_s": hold_s, "lead_s": lead_s, "entry": env.config.env.skill_switch_entry}
+            "hold_s": hold_s, "lead_s": lead_s, "entry": env.config.env.skill_switch_entry, "routes": routes}
