@@ -317,9 +317,12 @@ def test_switch_routes_from_a_trials_file(tmp_path, character, three_clips, caps
     assert json.loads(capsys.readouterr().out)["routes"] == {"slow_walk -> squat": "wave"}
     bad = tmp_path / "bad.json"
     bad.write_text("[1, 2")
-    assert cli.main(["play", str(three), "--switch-trials", "1", "--switch-routes", str(bad)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "--switch-routes" in err and "cannot read it as JSON" in err
+    for command in (["play", str(three), "--switch-trials", "1"],
+                    ["render", str(three), "--skill-sequence", "slow_walk:1", "--out", str(tmp_path / "v.mp4")]):
+        assert cli.main([*command, "--switch-routes", str(bad)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "--switch-routes" in err and "cannot read it as JSON" in err
+    assert not (tmp_path / "v.mp4").exists()
 
 
 def test_parse_sequence():

@@ -221,19 +221,6 @@ def _switch_trials(args: argparse.Namespace, pf, env) -> int:
     return 0
 
 
-def _routes(path: Path, names: list[str]) -> dict[tuple[int, int], int]:
-    from mjxmimic.core.errors import UserError
-    from mjxmimic.portable.skills import best_routes
-
-    try:
-        trials = json.loads(path.read_text())
-    except (OSError, ValueError) as e:
-        raise UserError(f"--switch-routes {path}: cannot read it as JSON ({e.__class__.__name__})") from None
-    if not isinstance(trials, dict):
-        raise UserError(f"--switch-routes {path}: expected the JSON object of --switch-trials N --json")
-    return best_routes(trials, names, f"--switch-routes {path}")
-
-
 def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
     from mjxmimic.commands.evaluate import print_push_table
     from mjxmimic.core.errors import UserError
@@ -289,7 +276,9 @@ def run(args: argparse.Namespace) -> int:
         entry = {} if args.switch_entry is None else {"env.skill_switch_entry": args.switch_entry}
         env = CpuEnv(evaluation_config(apply_overrides(pf.config(), entry)), character, clips, pf.weights())
         if args.switch_routes is not None:
-            env.routes = _routes(args.switch_routes, names)
+            from mjxmimic.portable.skills import read_routes
+
+            env.routes = read_routes(args.switch_routes, names)
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:

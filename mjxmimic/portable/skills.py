@@ -6,7 +6,9 @@ trials, through a third skill where that holds more often. No JAX."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -117,6 +119,17 @@ def best_routes(trials: dict[str, Any], names: list[str],
         if via is not None and rate.get((a, via), 0.0) * rate.get((via, b), 0.0) > direct:
             routes[a, b] = via
     return routes
+
+
+def read_routes(path: Path, names: list[str]) -> dict[tuple[int, int], int]:
+    """`--switch-routes TRIALS.json`: best_routes of a file that `--switch-trials N --json` wrote."""
+    try:
+        trials = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as e:
+        raise UserError(f"--switch-routes {path}: cannot read it as JSON ({e.__class__.__name__})") from None
+    if not isinstance(trials, dict):
+        raise UserError(f"--switch-routes {path}: expected the JSON object of --switch-trials N --json")
+    return best_routes(trials, names, f"--switch-routes {path}")
 
 
 def switch_trials(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], moments: int = 10,
