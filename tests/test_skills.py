@@ -281,6 +281,8 @@ def test_best_routes_pass_through_a_skill_where_that_holds_more_often():
         best_routes(_trials({"walk -> fly": 1.0}), names)
     with pytest.raises(config_lib.UserError, match="no switch pairs"):
         best_routes({}, names)
+    with pytest.raises(config_lib.UserError, match="pair 'walk -> run' has no 'held' count"):
+        best_routes({"pairs": {"walk -> run": [10, 10]}}, names)
 
 
 @pytest.fixture(scope="module")

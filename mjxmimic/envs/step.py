@@ -253,7 +253,8 @@ def reset(spec: Spec, physics: Physics, clip: Any, t: Any, event_seed: Any = 0.0
     qpos, qvel = with_ball(spec, physics, qpos, qvel)
     state = physics.init(qpos, qvel)
     motion = Motion(clip=clip, time=t, steps=xp.zeros((), xp.int32), root_offset=xp.zeros(2, xp.float32),
-                    event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp), settle=xp.zeros((), xp.int32))
+                    event_seed=event_seed, goal=initial_goal(spec, qpos, event_seed, xp),
+                    settle=xp.zeros((), xp.int32))
     q, v, ball_q, ball_v = split_ball(spec, qpos, qvel)
     return state, motion, observe(spec, physics, physics.kinematics(q, v), motion, (ball_q, ball_v))
 

@@ -102,16 +102,20 @@ def best_routes(trials: dict[str, Any], names: list[str],
     """From `play --switch-trials N --json` output: for each ordered pair of skills (a, b), the skill c
     to pass through (CpuEnv.routes) where the measured rates make a -> c -> b likelier to hold than a
     -> b (the product of the two rates, as if independent)."""
-    rate = {}
-    for pair, row in (trials.get("pairs") or {}).items():
-        a, sep, b = pair.partition(" -> ")
-        if not sep or a not in names or b not in names or not row.get("steps_after_switch"):
-            raise UserError(f"{source}: pair {pair!r} is not a switch between the policy's skills "
-                            f"({', '.join(names)})")
-        rate[names.index(a), names.index(b)] = row["held"] / len(row["steps_after_switch"])
-    if not rate:
+    pairs = trials.get("pairs")
+    if not isinstance(pairs, dict) or not pairs:
         raise UserError(f"{source}: no switch pairs (expected the JSON of "
                         "`mjxmimic play POLICY --switch-trials N --json`)")
+    rate = {}
+    for pair, row in pairs.items():
+        a, sep, b = pair.partition(" -> ")
+        if not sep or a not in names or b not in names:
+            raise UserError(f"{source}: pair {pair!r} is not a switch between the policy's skills "
+                            f"({', '.join(names)})")
+        tried = row.get("steps_after_switch") if isinstance(row, dict) else None
+        if not isinstance(tried, list) or not tried or not isinstance(row.get("held"), int):
+            raise UserError(f"{source}: pair {pair!r} has no 'held' count of its 'steps_after_switch' trials")
+        rate[names.index(a), names.index(b)] = row["held"] / len(tried)
     routes = {}
     for (a, b), direct in rate.items():
         via = max((c for c in range(len(names)) if c not in (a, b)),
