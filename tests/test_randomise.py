@@ -67,6 +67,50 @@ def test_pushes_draw_their_force_and_start_in_range_and_vary():
     np.testing.assert_allclose(np.asarray(mjx), events.push(env, 1.4, 0.3, 3, np), rtol=1e-4, atol=1e-3)
 
 
+def test_table6_pushes_go_forward_or_sideways_of_the_facing():
+    from mjxmimic.core import quat
+
+    env = make_config("cpu", {"env.push_force_n": 300.0, "env.push_directions": "table6"}).env
+    yaw = 0.7  # the character faces 0.7 rad from the world's x axis
+    qpos = np.zeros(7)
+    qpos[3:7] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+    assert quat.heading(qpos[3:7]) == pytest.approx(yaw)
+    turns = []
+    for seed in np.linspace(0.0, 1.0, 25, endpoint=False):
+        for k in range(1, 9):  # the first 1/30 s of push k
+            f = events.push(env, 2.0 * k, seed, 3, np, qpos)[events.ROOT_BODY]
+            assert np.linalg.norm(f[:2]) == pytest.approx(300.0)
+            turns.append(round(float(np.angle(np.exp(1j * (np.arctan2(f[1], f[0]) - yaw)))) / (np.pi / 2)))
+    share = {t: turns.count(t) / len(turns) for t in set(turns)}
+    assert set(share) == {-1, 0, 1} and 0.4 < share[0] < 0.6 and min(share[-1], share[1]) > 0.15
+    mjx = jax.jit(lambda t, s, q: events.push(env, t, s, 3, jnp, q))(jnp.float32(2.0), jnp.float32(0.3),
+                                                                        jnp.asarray(qpos, jnp.float32))
+    np.testing.assert_allclose(np.asarray(mjx), events.push(env, 2.0, 0.3, 3, np, qpos), rtol=1e-4, atol=1e-3)
+    with pytest.raises(UserError, match="env.push_directions"):
+        make_config("cpu", {"env.push_directions": "backward"})
+
+
+def test_the_step_pushes_along_the_facing(character):
+    from mjxmimic.core import quat
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    config = make_config("cpu", {"env.events": "push", "env.push_force_n": 600.0, "env.push_directions": "table6",
+                                 "env.action_mode": "residual"})
+    env = CpuEnv(config, character, load_clip_source("slow_walk", character))
+    env.terminations = ()
+    env.reset_at(0.0, event_seed=0.5)
+    assert events.sequence(events.DIRECTION, 0.5, 1) < 0.5  # this seed's push 1, at 2 s, goes forward
+    for _ in range(60):
+        env.step(np.zeros(character.action_size))
+    before, facing = env.data.qvel[:2].copy(), quat.heading(env.data.qpos[3:7])
+    for _ in range(6):  # the 0.2 s push
+        env.step(np.zeros(character.action_size))
+    gained = env.data.qvel[:2] - before
+    assert np.linalg.norm(gained) > 1.0  # 600 N for 0.2 s on a 45 kg body: about 2.7 m/s
+    assert abs(np.angle(np.exp(1j * (np.arctan2(gained[1], gained[0]) - facing)))) < 0.5
+
+
 def test_factors_are_the_same_bits_on_numpy_and_jax_in_range_and_differ_between_episodes():
     env = make_config("cpu", RANDOMISED).env
     seeds = np.asarray(jax.random.uniform(jax.random.PRNGKey(0), (64,)))

@@ -58,6 +58,9 @@ class EnvConfig:
     push_duration_s: float = 0.2
     push_interval_s: float = 2.0  # one push every interval, from the second on
     push_interval_jitter_s: float = 0.0  # each push starts up to this long after its interval's start
+    # "any": each push in a direction uniform over the compass; "table6": forward, or to the left or
+    # right, of the character's facing (half of the pushes forward), the directions Table 6 tests
+    push_directions: str = "any"
     # Domain randomisation (mjxmimic.physics.randomise), per episode; (1, 1) = off. Factors (lo,
     # hi): one for every geom's sliding friction, one per body for its mass and inertia.
     friction_range: tuple[float, ...] = (1.0, 1.0)
@@ -388,6 +391,7 @@ def validate(config: Config) -> None:
         (env.push_force_max_n == 0 or env.push_force_max_n >= env.push_force_n, "env.push_force_max_n",
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
+        (env.push_directions in ("any", "table6"), "env.push_directions", "must be 'any' or 'table6'"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
          "must be two factors lo,hi with 0 <= lo <= hi (finite)"),

@@ -389,7 +389,9 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
     nbody = spec.layout.body_mass.shape[0]
     rows = nbody if external_force is None else external_force.shape[0]  # a caller's may cover a ball's body
-    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, rows, xp)
+    now = physics.qpos_qvel(state)[0] if spec.events else None  # where the character faces
+    events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, rows, xp,
+                                        now)
     if events is not None or external_force is not None:
         external_force = (0.0 if events is None else events) + (0.0 if external_force is None else external_force)
     scales = randomise.draw(env, motion.event_seed, nbody, xp)

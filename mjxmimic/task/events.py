@@ -5,7 +5,8 @@ mass, world frame), summed over the events that `env.events` names. Off by defau
 push: every `env.push_interval_s` of an episode, a horizontal force of `env.push_force_n` on the
 root for `env.push_duration_s` (DeepMimic's Table 6 pushes are 0.2 s on the pelvis). Its direction
 comes from the episode's event seed and the push's index by a golden-ratio sequence, so the step
-needs no random numbers and MJX and the CPU env push alike. With `env.push_force_max_n` each
+needs no random numbers and MJX and the CPU env push alike: any compass direction, or with
+`env.push_directions=table6` forward or sideways of the character's facing. With `env.push_force_max_n` each
 push's force lies in [push_force_n, push_force_max_n], and with `env.push_interval_jitter_s` it
 starts up to that long after its interval's start, each by a sequence of its own of the same
 kind (`sequence`).
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from mjxmimic.core import quat
 from mjxmimic.core.config import EnvConfig
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.kinematics import ROOT_BODY
@@ -38,12 +40,17 @@ def sequence(which: tuple[float, float], event_seed: Any, k: Any) -> Any:
     return (multiplier * event_seed + step * k) % 1.0
 
 
-def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any) -> Any:
-    """The push force for a control step that starts `episode_time` seconds into the episode."""
+def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any, qpos: Any = None) -> Any:
+    """The push force for a control step that starts `episode_time` seconds into the episode, the
+    character in `qpos` (needed by env.push_directions=table6)."""
     k = xp.floor(episode_time / env.push_interval_s)
     since = episode_time - k * env.push_interval_s - env.push_interval_jitter_s * sequence(DELAY, event_seed, k)
     active = (k >= 1) & (since > -1e-6) & (since < env.push_duration_s - 1e-6)  # none in the first interval
-    turn = 2.0 * xp.pi * sequence(DIRECTION, event_seed, k)
+    u = sequence(DIRECTION, event_seed, k)
+    if env.push_directions == "table6":  # forward half the time, else to the left or to the right
+        turn = quat.heading(qpos[3:7], xp) + xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
+    else:
+        turn = 2.0 * xp.pi * u
     force = env.push_force_n
     if env.push_force_max_n > 0:
         force = force + (env.push_force_max_n - env.push_force_n) * sequence(FORCE, event_seed, k)
@@ -53,7 +60,7 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     return xp.where(on_root[:, None], wrench[None, :], 0.0).astype(xp.float32)
 
 
-TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any], Any]] = {"push": push}
+TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any, Any], Any]] = {"push": push}
 
 
 def parse(names: str) -> tuple[str, ...]:
@@ -65,11 +72,11 @@ def parse(names: str) -> tuple[str, ...]:
 
 
 def external_force(names: tuple[str, ...], env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int,
-                   xp: Any) -> Any:
+                   xp: Any, qpos: Any = None) -> Any:
     """The summed force of the named events, or None when there are none."""
     if not names:
         return None
     total = 0.0
     for name in names:
-        total = total + TERMS[name](env, episode_time, event_seed, nbody, xp)
+        total = total + TERMS[name](env, episode_time, event_seed, nbody, xp, qpos)
     return total
