@@ -246,7 +246,7 @@ def test_switch_trials(skilled_file, capsys, entry):
     assert cli.main(["play", str(skilled_file), "--switch-trials", "2", "--switch-entry", entry, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert set(out["pairs"]) == {"slow_walk -> squat", "squat -> slow_walk"} and out["trials"] == 4
-    assert out["entry"] == entry
+    assert out["entry"] == entry and out["lead_s"] == 1.0
     hold = round(out["hold_s"] * 30)
     for row in out["pairs"].values():
         steps = row["steps_after_switch"]
@@ -258,6 +258,10 @@ def test_switch_trials(skilled_file, capsys, entry):
 def test_switch_trials_errors_are_one_line(skilled_file, tmp_path, character, two_clips, capsys):
     assert cli.main(["play", str(skilled_file), "--switch-trials", "0"]) == 2
     assert "--switch-trials 0: must be at least 1" in capsys.readouterr().err
+    assert cli.main(["play", str(skilled_file), "--switch-trials", "2", "--switch-lead", "-1"]) == 2
+    assert "--switch-lead -1.0: must be at least 0" in capsys.readouterr().err
+    assert cli.main(["play", str(skilled_file), "--switch-trials", "1", "--switch-lead", "0.5", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["lead_s"] == 0.5
     one = policy_file.write_npz(_random_policy(character, two_clips[:1], "phase,root_height,bodies"),
                                 tmp_path / "one.npz")
     assert cli.main(["play", str(one), "--switch-trials", "1"]) == 2

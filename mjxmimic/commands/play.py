@@ -51,6 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--switch-trials", type=int, default=None, metavar="N",
                         help="a policy trained on a dataset with the skill observation: how often its switches "
                              "hold (up 4 s after), over N switch moments for every ordered pair of skills")
+    parser.add_argument("--switch-lead", type=float, default=1.0, metavar="SECONDS",
+                        help="with --switch-trials: seconds of the first skill before the first switch moment "
+                             "(default 1; the moments then come every 4 control steps)")
     parser.add_argument("--switch-entry", choices=["phase", "nearest"], default=None,
                         help="where a switch between cyclic clips enters the next: the same phase or the "
                              "nearest reference pose (default: the rule the policy was trained with)")
@@ -208,11 +211,14 @@ def _switch_trials(args: argparse.Namespace, pf, env) -> int:
 
     if args.switch_trials < 1:
         raise UserError(f"--switch-trials {args.switch_trials}: must be at least 1")
-    result = {"policy": str(pf.path), **switch_trials(env, pf.policy(), args.switch_trials)}
+    if not args.switch_lead >= 0:
+        raise UserError(f"--switch-lead {args.switch_lead}: must be at least 0 (seconds)")
+    result = {"policy": str(pf.path), **switch_trials(env, pf.policy(), args.switch_trials, args.switch_lead)}
     if args.json:
         print(json.dumps(result))
         return 0
-    print(f"{pf.path}: switches that hold {result['hold_s']:g} s, {result['entry']} entry, MuJoCo CPU")
+    print(f"{pf.path}: switches that hold {result['hold_s']:g} s, {result['entry']} entry, "
+          f"{result['lead_s']:g} s of the first skill before, MuJoCo CPU")
     for pair, row in result["pairs"].items():
         print(f"  {pair:<30} {row['held']:>3} of {args.switch_trials}")
     print(f"  {'all pairs':<30} {result['held']:>3} of {result['trials']}")
