@@ -150,7 +150,7 @@ def test_entry_times(player):
         for k in (3, 17, 30):
             env.reset_at(k * dt, clip=clip)
             kin = env.physics.kinematics(env.data.qpos, env.data.qvel)
-            times = gate_lib.entry_times(player.gate, kin, np)
+            times = entry_lib.nearest_times(player.gate.entry, kin, np)
             # that time, or one whose reference pose is the same (a clip may hold a pose a while)
             np.testing.assert_allclose(features(clip, times[clip]), features(clip, k * dt), atol=1e-4)
             assert clip == 1 or times[clip] == pytest.approx(k * dt, abs=1e-5)

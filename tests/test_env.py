@@ -12,7 +12,7 @@ from mjxmimic.core import quat
 from mjxmimic.core.config import apply_overrides, make_config
 from mjxmimic.physics.pd import action_to_targets, pd_forces
 from mjxmimic.envs.mjx_env import ImitationEnv
-from mjxmimic.core.kinematics import kin_from_data
+from mjxmimic.core.kinematics import ROOT_BODY, kin_from_data
 from mjxmimic.motion.clip import load_clip_source
 from mjxmimic.task.observation import DEFAULT, observe, parse
 from mjxmimic.task import termination
@@ -315,7 +315,7 @@ def test_push_event_moves_the_root_the_same_way_on_mjx_and_mujoco_c(env):
     trans = jax.jit(pushed.transition)
     state = jax.jit(pushed.reset_at)(jax.random.PRNGKey(0), 0.3)
     seed = float(state.info["event_seed"])
-    wrench = [events.push(cfg.env, k / 30, seed, env.model.nbody, np)[events.ROOT_BODY] for k in range(30)]
+    wrench = [events.push(cfg.env, k / 30, seed, env.model.nbody, np)[ROOT_BODY] for k in range(30)]
     pushing = [k for k in range(30) if np.any(wrench[k][:2] != 0)]
     first = pushing[0]  # the jittered start: 0.5 s to 0.7 s in
     assert 15 <= first <= 21 and pushing == list(range(first, first + 6))  # 0.2 s = 6 steps

@@ -12,7 +12,7 @@ import pytest
 
 from mjxmimic.core.config import apply_overrides, from_dict, make_config, to_dict
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.kinematics import com_velocity
+from mjxmimic.core.kinematics import ROOT_BODY, com_velocity
 from mjxmimic.physics import randomise
 from mjxmimic.physics.randomise import Scales
 from mjxmimic.task import events
@@ -51,7 +51,7 @@ def test_pushes_draw_their_force_and_start_in_range_and_vary():
                               "env.push_interval_s": 1.0, "env.push_interval_jitter_s": 0.5}).env
     dt, forces, starts = 1 / 30, [], []
     for seed in np.linspace(0.0, 1.0, 7, endpoint=False):
-        wrench = np.stack([events.push(env, k * dt, seed, 3, np)[events.ROOT_BODY] for k in range(150)])
+        wrench = np.stack([events.push(env, k * dt, seed, 3, np)[ROOT_BODY] for k in range(150)])
         force = np.linalg.norm(wrench[:, :2], axis=1)
         assert np.all(force[:30] == 0)  # none in the first interval
         for interval in range(1, 5):
@@ -78,7 +78,7 @@ def test_table6_pushes_go_forward_or_sideways_of_the_facing():
     turns = []
     for seed in np.linspace(0.0, 1.0, 25, endpoint=False):
         for k in range(1, 9):  # the first 1/30 s of push k
-            f = events.push(env, 2.0 * k, seed, 3, np, qpos)[events.ROOT_BODY]
+            f = events.push(env, 2.0 * k, seed, 3, np, qpos)[ROOT_BODY]
             assert np.linalg.norm(f[:2]) == pytest.approx(300.0)
             turns.append(round(float(np.angle(np.exp(1j * (np.arctan2(f[1], f[0]) - yaw)))) / (np.pi / 2)))
     share = {t: turns.count(t) / len(turns) for t in set(turns)}
@@ -154,7 +154,7 @@ def test_heavier_bodies_gain_less_speed_from_a_push_and_less_friction_slides_far
     cpu = _cpu_physics(character, make_config("cpu", {"env.action_mode": "residual"}))
     nbody, mass = cpu.model.nbody, cpu.model.body_mass.copy()
     push = np.zeros((nbody, 6))
-    push[events.ROOT_BODY, 0] = 3000.0
+    push[ROOT_BODY, 0] = 3000.0
     nominal, heavy = Scales(1.0, np.ones(nbody)), Scales(1.0, 2.0 * np.ones(nbody))
     def com_speed(scales, force):  # every body twice as heavy: the same weights in the mean
         qvel = _one_step(cpu, scales, force=force, lift=1.0)
@@ -188,7 +188,7 @@ def test_mjx_steps_each_env_under_its_own_factors_as_mujoco_c_does(residual_env,
     data = states.pipeline_state
     states = states.replace(pipeline_state=data.replace(qpos=data.qpos.at[:, 2].add(1.0)))  # 1 m up
     push = np.zeros((env.model.nbody, 6), np.float32)
-    push[events.ROOT_BODY, 0] = 2000.0
+    push[ROOT_BODY, 0] = 2000.0
     transition = jax.jit(jax.vmap(lambda s, a: env.transition(s, a, external_force=jnp.asarray(push))))
     nxt = transition(states, jnp.zeros((2, env.action_size)))
     mjx_qvel = np.asarray(nxt.pipeline_state.qvel)
@@ -223,7 +223,7 @@ def test_off_by_default_the_model_and_the_pushes_are_as_before(residual_env):
     for seed, t in ((0.3, 2.0), (0.71, 4.1), (0.05, 6.15)):
         k = np.floor(t / env.push_interval_s)
         turn = 2.0 * np.pi * ((seed + events.GOLDEN * k) % 1.0)
-        wrench = events.push(env, t, seed, 3, np)[events.ROOT_BODY]
+        wrench = events.push(env, t, seed, 3, np)[ROOT_BODY]
         np.testing.assert_array_equal(wrench, np.float32([300.0 * np.cos(turn), 300.0 * np.sin(turn), 0, 0, 0, 0]))
 
 
@@ -243,7 +243,7 @@ def test_warp_batches_the_randomised_fields_as_jax_does(character):
     nbody = scene.model.nbody
     qpos, qvel = motion.sample(spec.lib, 0, jnp.float32(0.3), jnp)
     targets = action_to_targets(spec.layout, jnp.zeros(character.action_size), qpos, "residual", 1.0, jnp)
-    push = jnp.zeros((nbody, 6)).at[events.ROOT_BODY, 0].set(2000.0)
+    push = jnp.zeros((nbody, 6)).at[ROOT_BODY, 0].set(2000.0)
     scales = Scales(friction=jnp.array([1.0, 0.2, 1.0]), mass=jnp.stack([jnp.ones(nbody), jnp.ones(nbody),
                                                                            2.0 * jnp.ones(nbody)]))
     out = {}

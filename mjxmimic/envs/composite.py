@@ -111,11 +111,6 @@ def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any
     return xp.stack(rows)
 
 
-def entry_times(gate: Gate, k: Kin, xp: Any) -> Any:
-    """(E,) where each expert would start now: its grid time of the nearest reference pose."""
-    return entry_lib.nearest_times(gate.entry, k, xp)
-
-
 def tracking_error(spec: step_lib.Spec, physics: Physics, sim: Kin, qpos: Any, motion: step_lib.Motion,
                    xp: Any) -> Any:
     """Mean joint angle (rad) from the active expert's reference at its time, turned and moved to
@@ -132,7 +127,7 @@ def decide(spec: step_lib.Spec, gate: Gate, physics: Physics, qpos: Any, qvel: A
     k = physics.kinematics(qpos, qvel)
     count = len(spec.lib.duration)
     active = xp.arange(count) == motion.clip
-    times = xp.where(active, motion.time, entry_times(gate, k, xp)).astype(xp.float32)
+    times = xp.where(active, motion.time, entry_lib.nearest_times(gate.entry, k, xp)).astype(xp.float32)  # (E,)
     obs = expert_observations(spec, k, times, xp)
     values = xp.asarray(values_of(obs), xp.float32)
     allowed = ~(active & motion_lib.ended(spec.lib, motion.clip, motion.time, xp))  # no immediate repeat

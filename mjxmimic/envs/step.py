@@ -408,8 +408,9 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     offset = motion.root_offset
     if spec.config.reward.sync_root_position and not task.name:  # a task's reference follows the character
         offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
+    settles = env.skill_switch_settle_s > 0  # static: the settle window's work is traced only with it
     settling = motion.settle > 0
-    if env.skill_switch_settle_s > 0:  # the reference root follows the character
+    if settles:  # the reference root follows the character
         offset = xp.where(settling, qpos[0:2] - ref_qpos[0:2], offset)
     ref = physics.kinematics(*graded_reference(spec, ref_qpos, ref_qvel, qpos, offset, xp))
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
@@ -446,7 +447,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
                                   pose_termination_m=env.pose_termination_m,
                                   pit_z=-spec.config.terrain.fall_margin_m if spec.terrain is not None else None)
     fired = {name: termination.TERMS[name](outcome, xp) for name in terminations}
-    if "pose_deviation" in fired:
+    if settles and "pose_deviation" in fired:
         fired["pose_deviation"] = fired["pose_deviation"] & ~settling
     bad = fired.get("bad_state", xp.zeros((), bool))
     failed = xp.zeros((), bool)
@@ -462,8 +463,9 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     metrics["reward/imitation"] = xp.where(failed, 0.0, metrics["reward/imitation"])
 
     t_before = motion.time
-    motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state,
-                             settle=xp.maximum(motion.settle - 1, 0))
+    motion = motion._replace(time=t, steps=steps, root_offset=offset, goal=goal_state)
+    if settles:
+        motion = motion._replace(settle=xp.maximum(motion.settle - 1, 0))
     if switching:
         motion = skill_switch.maybe_switch_skill(spec, motion, t_before, qpos, done, xp, sim)
     obs = observe(spec, physics, sim, motion, (ball_q, ball_v))

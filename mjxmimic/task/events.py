@@ -16,10 +16,9 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from mjxmimic.core import quat
 from mjxmimic.core.config import EnvConfig
 from mjxmimic.core.errors import UserError
-from mjxmimic.core.kinematics import ROOT_BODY
+from mjxmimic.task import push_protocol
 from mjxmimic.task.goals import PLASTIC
 
 GOLDEN = 0.6180339887498949
@@ -46,18 +45,14 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     k = xp.floor(episode_time / env.push_interval_s)
     since = episode_time - k * env.push_interval_s - env.push_interval_jitter_s * sequence(DELAY, event_seed, k)
     active = (k >= 1) & (since > -1e-6) & (since < env.push_duration_s - 1e-6)  # none in the first interval
-    u = sequence(DIRECTION, event_seed, k)
-    if env.push_directions == "table6":  # forward half the time, else to the left or to the right
-        turn = quat.heading(qpos[3:7], xp) + xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
-    else:
-        turn = 2.0 * xp.pi * u
     force = env.push_force_n
     if env.push_force_max_n > 0:
         force = force + (env.push_force_max_n - env.push_force_n) * sequence(FORCE, event_seed, k)
-    zero = xp.zeros_like(turn)
-    wrench = force * active * xp.stack([xp.cos(turn), xp.sin(turn), zero, zero, zero, zero])
-    on_root = xp.arange(nbody) == ROOT_BODY
-    return xp.where(on_root[:, None], wrench[None, :], 0.0).astype(xp.float32)
+    u = sequence(DIRECTION, event_seed, k)
+    if env.push_directions == "table6":  # forward half the time, else to the left or to the right
+        turn = xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
+        return push_protocol.wrench(qpos, force, turn, active, nbody, xp)
+    return push_protocol.root_force(2.0 * xp.pi * u, force, active, nbody, xp)
 
 
 TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any, Any], Any]] = {"push": push}

@@ -42,14 +42,18 @@ def start_time_range(duration: float, loop: bool) -> float:
     return duration if loop else max(duration - LEAD_S - PUSH_S, 0.0)
 
 
-def wrench(qpos: Any, force_n: Any, turn: Any, active: Any, nbody: int, xp: Any) -> Any:
-    """(nbody, 6) world-frame force and torque: `force_n` on the root along its facing turned by
-    `turn`, where `active`."""
-    yaw = quat.heading(qpos[3:7], xp) + turn
+def root_force(yaw: Any, force_n: Any, active: Any, nbody: int, xp: Any) -> Any:
+    """(nbody, 6) world-frame force and torque: `force_n` on the root horizontally along the world
+    angle `yaw`, where `active`."""
     zero = xp.zeros_like(yaw)
     f = force_n * active * xp.stack([xp.cos(yaw), xp.sin(yaw), zero, zero, zero, zero])
     on_root = xp.arange(nbody) == ROOT_BODY
     return xp.where(on_root[:, None], f[None, :], 0.0).astype(xp.float32)
+
+
+def wrench(qpos: Any, force_n: Any, turn: Any, active: Any, nbody: int, xp: Any) -> Any:
+    """`root_force` along the character's facing turned by `turn`."""
+    return root_force(quat.heading(qpos[3:7], xp) + turn, force_n, active, nbody, xp)
 
 
 def scheduled(qpos: Any, push: tuple[float, float, float], step: int, control_dt: float, nbody: int,
