@@ -4,9 +4,13 @@ r = sum weight * exp(-scale * E). The released code's five terms and the paper's
 lists; `reward.weights` re-weights (or, with 0, drops) terms of the chosen list.
 
 released (default): 0.5 exp(-2 E_pose) + 0.05 exp(-0.1 E_vel) + 0.15 exp(-10 E_ee)
-                    + 0.2 exp(-5 E_root) + 0.1 exp(-10 E_com), E_com on COM velocity
+                    + 0.2 exp(-5 E_root) + 0.1 exp(-10 E_com); E_pose and E_vel weigh each joint
+                    by its DiffWeight (normalised), E_ee is in each root's heading frame, E_com on
+                    COM velocity
 paper:              0.65 exp(-2 E_pose) + 0.1 exp(-0.1 E_vel) + 0.15 exp(-40 E_ee)
-                    + 0.1 exp(-10 E_com), E_com on COM position
+                    + 0.1 exp(-10 E_com), as the paper writes them: plain sums over the joints (no
+                    weights), end effectors and COM at their world positions (the reference's root
+                    moved as the reward moves it, reward.sync_root_position)
 """
 
 from __future__ import annotations
@@ -51,8 +55,22 @@ def velocity_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
     return xp.sum(layout.quat_weight * ang) + xp.sum(layout.hinge_weight * (sim.qvel[hv] - ref.qvel[hv]) ** 2)
 
 
+def plain_pose_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
+    quat_angle, hinge_angle = joint_angles(layout, sim, ref, xp)
+    return xp.sum(quat_angle**2) + xp.sum(hinge_angle**2)
+
+
+def plain_velocity_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
+    hv = layout.v_scalar[3:]
+    return xp.sum((sim.qvel[layout.v_ang] - ref.qvel[layout.v_ang]) ** 2) + xp.sum((sim.qvel[hv] - ref.qvel[hv]) ** 2)
+
+
 def end_effector_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
     return xp.sum((end_effectors(layout, sim, xp) - end_effectors(layout, ref, xp)) ** 2)
+
+
+def world_end_effector_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
+    return xp.sum((sim.xipos[layout.end_effectors] - ref.xipos[layout.end_effectors]) ** 2)
 
 
 def root_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
@@ -75,8 +93,9 @@ LISTS: dict[str, tuple[Term, ...]] = {
     "released": (Term("pose", pose_error, 0.5, 2.0), Term("velocity", velocity_error, 0.05, 0.1),
                  Term("end_effector", end_effector_error, 0.15, 10.0), Term("root", root_error, 0.2, 5.0),
                  Term("com", com_velocity_error, 0.1, 10.0)),
-    "paper": (Term("pose", pose_error, 0.65, 2.0), Term("velocity", velocity_error, 0.1, 0.1),
-              Term("end_effector", end_effector_error, 0.15, 40.0), Term("com", com_position_error, 0.1, 10.0)),
+    "paper": (Term("pose", plain_pose_error, 0.65, 2.0), Term("velocity", plain_velocity_error, 0.1, 0.1),
+              Term("end_effector", world_end_effector_error, 0.15, 40.0),
+              Term("com", com_position_error, 0.1, 10.0)),
 }
 
 

@@ -1,0 +1,59 @@
+"""Each term of the imitation reward, as a policy meets it on MuJoCo C: the paper's four terms as
+the paper writes them (`reward.kind=paper`), the mixed form that `nr_paper` computed before the
+tenth session of 2026-11-26 (the same terms and scales with the released code's per-joint
+weights and heading-frame end effectors), and the released code's five. Mean error E and mean
+exp(-scale E) per clip over the steps the character is up.
+
+    python experiments/paper_form/terms.py POLICY.npz [EPISODES] [SECONDS] > terms.json
+"""
+
+import json
+import sys
+
+import numpy as np
+
+from mjxmimic.core.config import evaluation_config
+from mjxmimic.envs.cpu_env import CpuEnv
+from mjxmimic.runs.folder import load_policy_file
+from mjxmimic.task import reward as R
+
+MIXED = (R.Term("pose", R.pose_error, 0.65, 2.0), R.Term("velocity", R.velocity_error, 0.1, 0.1),
+         R.Term("end_effector", R.end_effector_error, 0.15, 40.0), R.Term("com", R.com_position_error, 0.1, 10.0))
+FORMS = {"paper": R.terms("paper"), "mixed": MIXED, "released": R.terms("released")}
+
+
+def main() -> None:
+    pf = load_policy_file(sys.argv[1])
+    episodes = int(sys.argv[2]) if len(sys.argv) > 2 else 4
+    seconds = float(sys.argv[3]) if len(sys.argv) > 3 else 20.0
+    env = CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights())
+    policy = pf.policy()
+    out = {"policy": sys.argv[1], "episodes": episodes, "seconds": seconds, "clips": {}}
+    for c, clip in enumerate(env.clips):
+        sums = {f: {t.name: np.zeros(2) for t in terms} for f, terms in FORMS.items()}
+        totals, steps = {f: 0.0 for f in FORMS}, 0
+        for t0 in env.start_times(episodes, seed=0, clip=c):
+            obs = env.reset_at(float(t0), clip=c)
+            for _ in range(min(env.eval_horizon(float(t0), c), round(seconds / env.control_dt))):
+                s = env.step(policy(obs))
+                if s.failed:
+                    break
+                obs = s.obs
+                sim = env.physics.kinematics(env.data.qpos.copy(), env.data.qvel.copy())
+                ref = env.physics.kinematics(*env.reference(env.time))
+                steps += 1
+                for f, terms in FORMS.items():
+                    for t in terms:
+                        e = float(t.error(env.spec.layout, sim, ref, np))
+                        sums[f][t.name] += (e, np.exp(-t.scale * e))
+                    totals[f] += float(R.reward(terms, env.spec.layout, sim, ref, np)[0])
+        out["clips"][clip.name] = {
+            "steps_up": steps,
+            **{f: {"reward": round(totals[f] / steps, 4),
+                   **{name: {"error": round(v[0] / steps, 4), "term": round(v[1] / steps, 4)}
+                      for name, v in sums[f].items()}} for f in FORMS}}
+    print(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()
