@@ -314,6 +314,23 @@ def test_a_routed_switch_plays_the_skill_between_for_a_second(character, three_c
     assert env.motion.clip == 0
 
 
+def test_a_switch_out_of_a_finish_cycle_skill_waits_for_its_cycle_end(character, three_clips):
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED})
+    env = CpuEnv(config, character, three_clips)
+    env.terminations = ()
+    env.finish_cycle = {0}
+    duration = float(env.clip_durations[0])
+    env.reset_at(duration - 0.2)
+    env.switch(2)
+    times = []
+    while env.motion.clip == 0:
+        times.append(float(env.time))
+        env.step(np.zeros(character.action_size))
+    assert duration - 2 * env.control_dt < times[-1] < duration  # the wave once the walk's cycle ended
+    env.switch(0)  # out of the wave: at once
+    assert env.motion.clip == 0
+
+
 def test_switch_routes_from_a_trials_file(tmp_path, character, three_clips, capsys):
     three = policy_file.write_npz(_random_policy(character, three_clips, SKILLED), tmp_path / "three.npz")
     routes = tmp_path / "trials.json"
@@ -321,6 +338,13 @@ def test_switch_routes_from_a_trials_file(tmp_path, character, three_clips, caps
                                           "wave -> squat": 0.9, "squat -> slow_walk": 1.0})))
     assert cli.main(["play", str(three), "--switch-trials", "1", "--switch-routes", str(routes), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["routes"] == {"slow_walk -> squat": "wave"}
+    assert cli.main(["play", str(three), "--switch-trials", "1", "--finish-cycle", "wave", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["finish_cycle"] == ["wave"]
+    for command in (["play", str(three), "--switch-trials", "1"],
+                    ["render", str(three), "--skill-sequence", "slow_walk:1", "--out", str(tmp_path / "v.mp4")]):
+        assert cli.main([*command, "--finish-cycle", "fly"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "--finish-cycle 'fly': no skill 'fly'" in err
     bad = tmp_path / "bad.json"
     bad.write_text("[1, 2")
     for command in (["play", str(three), "--switch-trials", "1"],

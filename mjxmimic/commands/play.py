@@ -60,6 +60,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
                         help="route switches that the trials (the JSON of --switch-trials N --json) saw "
                              "fall through a third skill, for 1 s, where that held more often")
+    parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]", default=None,
+                        help="switches out of these skills wait for the end of their cycle, e.g. backflip "
+                             "(it lands before the next skill starts)")
     composite = parser.add_argument_group("composite files (mjxmimic compose)")
     composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
     composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
@@ -285,6 +288,10 @@ def run(args: argparse.Namespace) -> int:
             from mjxmimic.portable.skills import read_routes
 
             env.routes = read_routes(args.switch_routes, names)
+        if args.finish_cycle is not None:
+            from mjxmimic.portable.skills import read_skills
+
+            env.finish_cycle = read_skills(args.finish_cycle, names, "--finish-cycle")
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:
@@ -295,7 +302,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         clip = clips[0]
     for flag, given in (("--skill-sequence", args.skill_sequence), ("--switch-trials", args.switch_trials),
-                        ("--switch-routes", args.switch_routes)):
+                        ("--switch-routes", args.switch_routes), ("--finish-cycle", args.finish_cycle)):
         if given is not None:
             raise UserError(f"{flag} needs a policy trained on a dataset of clips; this one has one clip")
     env = CpuEnv(evaluation_config(pf.config()), character, clip)

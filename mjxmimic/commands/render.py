@@ -44,6 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a dataset policy with the skill observation: switch skills, e.g. \"walk:4,run:4\"")
     parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
                         help="with --skill-sequence: route switches as `mjxmimic play --switch-routes` does")
+    parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]", default=None,
+                        help="with --skill-sequence: switches out of these skills wait for their cycle's end, "
+                             "as `mjxmimic play --finish-cycle` does")
 
 
 def parse_push(text: str, direction: str) -> tuple[float, float, float]:
@@ -103,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
         clip = load_clip_source(args.clip, pf.character(), args.clips_dir)
     info = render_policy(pf, args.out, ghost=args.ghost, clip=clip, start=args.start, seconds=args.seconds,
                          width=args.width, height=args.height, push=push, skill_sequence=args.skill_sequence,
-                         switch_routes=args.switch_routes)
+                         switch_routes=args.switch_routes, finish_cycle=args.finish_cycle)
     end = "fell" if info["fell"] else "did not fall"
     print(f"{args.out}: {info['frames']} frames, {info['seconds']:.1f} s at {info['fps']:.0f} fps, "
           f"{args.out.stat().st_size / 1024:.0f} KiB; {args.skill_sequence or info['clip']} from "

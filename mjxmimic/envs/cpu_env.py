@@ -71,6 +71,8 @@ class CpuEnv:
         # (from, to) -> the skill a switch passes through first (mjxmimic.portable.skills.best_routes)
         self.routes: dict[tuple[int, int], int] = {}
         self.then: tuple[int, int] | None = None  # a routed switch's target, control steps left before it
+        # clips that a switch leaves only where their cycle ends, as a one-off clip (a backflip lands)
+        self.finish_cycle: set[int] = set()
 
     @property
     def time(self) -> float:
@@ -106,9 +108,11 @@ class CpuEnv:
     def switch(self, clip: int) -> np.ndarray:
         """Ask for clip number `clip` from here on (the skill selector): between cyclic clips at
         once; into or out of a one-off clip (a getup, a kick) where the playing clip's cycle ends
-        (mjxmimic.envs.skill_switch, as training switches). A one-off clip hands back to the skill played before it at its end unless another was asked
-        for. With `routes`, a switch passes through another skill for ROUTE_VIA_S first. Returns the
-        observation, whose skill one-hot names the clip now followed."""
+        (mjxmimic.envs.skill_switch, as training switches). A one-off clip hands back to the skill
+        played before it at its end unless another was asked for. With `routes`, a switch passes
+        through another skill for ROUTE_VIA_S first; out of a clip of `finish_cycle` it waits for
+        that clip's cycle to end. Returns the observation, whose skill one-hot names the clip now
+        followed."""
         via = self.routes.get((int(self.motion.clip), int(clip)))
         self.then = None if via is None else (int(clip), max(1, round(ROUTE_VIA_S / self.control_dt)))
         self.requested = int(clip) if via is None else via
@@ -128,6 +132,9 @@ class CpuEnv:
             self.requested = None
             return False
         if not skill_switch.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np):
+            return False
+        if motion.clip in self.finish_cycle and not skill_switch.cycle_ended(lib, motion.clip, np.float32(t_before),
+                                                                             motion.time, np):
             return False
         self.resume_clip = motion.clip if not lib.loop[self.requested] and lib.loop[motion.clip] else None
         qpos, qvel, _, _ = step_lib.split_ball(self.spec, self.data.qpos, self.data.qvel)

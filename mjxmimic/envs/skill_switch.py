@@ -66,10 +66,14 @@ def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: 
     return _may_switch(spec.lib, clip, to, t_before, t_after, motion_lib.ended(spec.lib, clip, t_after, xp), xp)
 
 
+def cycle_ended(lib: motion_lib.MotionLib, clip: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
+    """Whether clip number `clip`, gone from t_before to t_after, passed the end of a cycle."""
+    return motion_lib.cycle_index(lib, clip, t_after, xp) > motion_lib.cycle_index(lib, clip, t_before, xp)
+
+
 def _may_switch(lib: motion_lib.MotionLib, clip: Any, to: Any, t_before: Any, t_after: Any, ended: Any,
                 xp: Any) -> Any:
-    wrapped = motion_lib.cycle_index(lib, clip, t_after, xp) > motion_lib.cycle_index(lib, clip, t_before, xp)
-    return (lib.loop[clip] & lib.loop[to]) | wrapped | ended
+    return (lib.loop[clip] & lib.loop[to]) | cycle_ended(lib, clip, t_before, t_after, xp) | ended
 
 
 def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, stopped: Any, xp: Any,

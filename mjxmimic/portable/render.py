@@ -311,13 +311,14 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
                   on_frame: Callable[[int], Any] | None = None,
                   push: tuple[float, float, float] | None = None,
                   skill_sequence: str | None = None,
-                  switch_routes: Path | None = None) -> dict[str, Any]:
+                  switch_routes: Path | None = None, finish_cycle: str | None = None) -> dict[str, Any]:
     """Video of one episode of an exported policy (mjxmimic.portable.policy_file.PolicyFile) from
     the reference state at clip time `start`, one frame per control step, until the episode ends
     (fall, clip end, time limit) or `seconds` have passed. `push` (force N, episode time s, turn
     from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow.
     `skill_sequence` ("walk:4,run:4", a dataset policy) switches skills as `play` does, until a
-    fall or the sequence's end, through the routes of `switch_routes` (skills.read_routes) if given."""
+    fall or the sequence's end, through the routes of `switch_routes` (skills.read_routes) if given,
+    leaving the skills of `finish_cycle` ("backflip,run") only where their cycle ends."""
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import skills
 
@@ -329,6 +330,8 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
         if switch_routes is not None:
             env.routes = skills.read_routes(switch_routes, [c.name for c in env.clips])
+        if finish_cycle is not None:
+            env.finish_cycle = skills.read_skills(finish_cycle, [c.name for c in env.clips], "--finish-cycle")
         switches = skills.switch_steps(env, sequence)
         total = sum(skills.segment_steps(env, sequence))
         limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))

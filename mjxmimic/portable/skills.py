@@ -136,6 +136,16 @@ def read_routes(path: Path, names: list[str]) -> dict[tuple[int, int], int]:
     return best_routes(trials, names, f"--switch-routes {path}")
 
 
+def read_skills(text: str, names: list[str], flag: str) -> set[int]:
+    """'backflip,run' -> the skills' numbers; an unknown name is a UserError naming `flag`."""
+    picked = [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in picked if n not in names]
+    if unknown or not picked:
+        raise UserError(f"{flag} {text!r}: {'no skill ' + repr(unknown[0]) if unknown else 'no skill named'} "
+                        f"(the policy's skills: {', '.join(names)})")
+    return {names.index(n) for n in picked}
+
+
 def switch_trials(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], moments: int = 10,
                   lead_s: float = 1.0, hold_s: float = 4.0) -> dict[str, Any]:
     """How often the selector's switches hold: for every ordered pair of skills (A, B), `moments`
@@ -174,4 +184,5 @@ def switch_trials(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], momen
     routes = {f"{env.clips[a].name} -> {env.clips[b].name}": env.clips[c].name
               for (a, b), c in env.routes.items()}
     return {"pairs": pairs, "held": sum(p["held"] for p in pairs.values()), "trials": moments * len(pairs),
-            "hold_s": hold_s, "lead_s": lead_s, "entry": env.config.env.skill_switch_entry, "routes": routes}
+            "hold_s": hold_s, "lead_s": lead_s, "entry": env.config.env.skill_switch_entry, "routes": routes,
+            "finish_cycle": sorted(env.clips[c].name for c in env.finish_cycle)}
