@@ -2,7 +2,9 @@
 paper-form NR beside DeepMimic's Table 2, its released-form NR, the samples and seconds to reach
 the paper's NR (or its best within the run), the final evaluation and its fall rate; then the
 frame strip of each run that has one (RUN/strip.png, from `mjxmimic render RUN/policy.npz --out
-RUN/strip.png --ghost --seconds CLIP_SECONDS`).
+RUN/strip.png --ghost --seconds CLIP_SECONDS`). Runs recorded before the tenth session of
+2026-11-26 hold the mixed paper form in eval/nr_paper (experiments/README.md); Table 2 is set
+beside whatever form the rows hold.
 
     python experiments/skills/table.py [RUN ...] > table.md
 """
