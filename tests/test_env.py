@@ -95,7 +95,6 @@ def test_reward_falls_as_pose_noise_grows(env):
     assert means[-1] < 0.5
 
 
-
 def test_paper_form_is_the_papers_equations_without_weights(env):
     """DEEPMIMIC.md: the paper's sums carry no per-joint weights and grade world positions."""
     lay = env.spec.layout
@@ -116,6 +115,7 @@ def test_paper_form_is_the_papers_equations_without_weights(env):
     assert by_name["pose"].error(lay, sim, ref, np) == pytest.approx(0.0, abs=1e-8)
     assert by_name["end_effector"].error(lay, sim, ref, np) == pytest.approx(0.25 * len(lay.end_effectors), rel=1e-6)
     assert by_name["com"].error(lay, sim, ref, np) == pytest.approx(0.25, rel=1e-6)
+
 
 def test_reset_state_is_the_reference_and_scores_one(env, transition, reset_at):
     state = reset_at(jax.random.PRNGKey(0), 0.4)

@@ -331,7 +331,7 @@ def test_a_switch_out_of_a_finish_cycle_skill_waits_for_its_cycle_end(character,
     assert env.motion.clip == 0
 
 
-def test_switch_routes_from_a_trials_file(tmp_path, character, three_clips, capsys):
+def test_switch_routes_and_finish_cycle_on_the_command_line(tmp_path, character, three_clips, capsys):
     three = policy_file.write_npz(_random_policy(character, three_clips, SKILLED), tmp_path / "three.npz")
     routes = tmp_path / "trials.json"
     routes.write_text(json.dumps(_trials({"slow_walk -> squat": 0.1, "slow_walk -> wave": 0.9,

@@ -139,10 +139,9 @@ def read_routes(path: Path, names: list[str]) -> dict[tuple[int, int], int]:
 def read_skills(text: str, names: list[str], flag: str) -> set[int]:
     """'backflip,run' -> the skills' numbers; an unknown name is a UserError naming `flag`."""
     picked = [n.strip() for n in text.split(",") if n.strip()]
-    unknown = [n for n in picked if n not in names]
-    if unknown or not picked:
-        raise UserError(f"{flag} {text!r}: {'no skill ' + repr(unknown[0]) if unknown else 'no skill named'} "
-                        f"(the policy's skills: {', '.join(names)})")
+    for name in picked or [""]:
+        if name not in names:
+            raise UserError(f"{flag} {text!r}: no skill {name!r} (the policy's skills: {', '.join(names)})")
     return {names.index(n) for n in picked}
 
 
