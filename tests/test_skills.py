@@ -331,6 +331,21 @@ def test_a_switch_out_of_a_finish_cycle_skill_waits_for_its_cycle_end(character,
     assert env.motion.clip == 0
 
 
+def test_auto_finish_cycle_picks_the_cyclic_skills_that_leave_the_ground(character, three_clips):
+    from mjxmimic.portable.skills import AIRBORNE_M, finish_cycle_skills
+
+    walk = three_clips[0]
+    lifted = walk.qpos.copy()
+    lifted[::2, 2] += AIRBORNE_M + 0.1  # every other frame in the air, both feet well off the floor
+    hop = dataclasses.replace(walk, name="hop", qpos=lifted)
+    hop_once = dataclasses.replace(hop, name="hop_once", loop=False)
+    config = config_lib.make_config("cpu", {"env.action_mode": "residual", "env.observations": SKILLED})
+    env = CpuEnv(config, character, [*three_clips, hop, hop_once])
+    assert finish_cycle_skills(env, None) == finish_cycle_skills(env, "auto") == {3}  # a one-off waits anyway
+    assert finish_cycle_skills(env, "none") == set()
+    assert finish_cycle_skills(env, "wave, hop") == {2, 3}
+
+
 def test_switch_routes_and_finish_cycle_on_the_command_line(tmp_path, character, three_clips, capsys):
     three = policy_file.write_npz(_random_policy(character, three_clips, SKILLED), tmp_path / "three.npz")
     routes = tmp_path / "trials.json"
@@ -338,8 +353,9 @@ def test_switch_routes_and_finish_cycle_on_the_command_line(tmp_path, character,
                                           "wave -> squat": 0.9, "squat -> slow_walk": 1.0})))
     assert cli.main(["play", str(three), "--switch-trials", "1", "--switch-routes", str(routes), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["routes"] == {"slow_walk -> squat": "wave"}
-    assert cli.main(["play", str(three), "--switch-trials", "1", "--finish-cycle", "wave", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["finish_cycle"] == ["wave"]
+    for flag, expected in (([], []), (["--finish-cycle", "wave"], ["wave"]), (["--finish-cycle", "none"], [])):
+        assert cli.main(["play", str(three), "--switch-trials", "1", *flag, "--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["finish_cycle"] == expected  # auto: none of these hops
     for command in (["play", str(three), "--switch-trials", "1"],
                     ["render", str(three), "--skill-sequence", "slow_walk:1", "--out", str(tmp_path / "v.mp4")]):
         assert cli.main([*command, "--finish-cycle", "fly"]) == 2

@@ -60,9 +60,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
                         help="route switches that the trials (the JSON of --switch-trials N --json) saw "
                              "fall through a third skill, for 1 s, where that held more often")
-    parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]", default=None,
-                        help="switches out of these skills wait for the end of their cycle, e.g. backflip "
-                             "(it lands before the next skill starts)")
+    parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]|auto|none", default=None,
+                        help="switches out of these skills wait for the end of their cycle, so that a backflip "
+                             "lands before the next skill starts (default auto: the cyclic skills whose clip "
+                             "lifts both feet 0.2 m off the ground; none: every switch at once)")
     composite = parser.add_argument_group("composite files (mjxmimic compose)")
     composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
     composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
@@ -288,10 +289,9 @@ def run(args: argparse.Namespace) -> int:
             from mjxmimic.portable.skills import read_routes
 
             env.routes = read_routes(args.switch_routes, names)
-        if args.finish_cycle is not None:
-            from mjxmimic.portable.skills import read_skills
+        from mjxmimic.portable.skills import finish_cycle_skills
 
-            env.finish_cycle = read_skills(args.finish_cycle, names, "--finish-cycle")
+        env.finish_cycle = finish_cycle_skills(env, args.finish_cycle)
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:

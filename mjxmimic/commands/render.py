@@ -44,9 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a dataset policy with the skill observation: switch skills, e.g. \"walk:4,run:4\"")
     parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
                         help="with --skill-sequence: route switches as `mjxmimic play --switch-routes` does")
-    parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]", default=None,
+    parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]|auto|none", default=None,
                         help="with --skill-sequence: switches out of these skills wait for their cycle's end, "
-                             "as `mjxmimic play --finish-cycle` does")
+                             "as `mjxmimic play --finish-cycle` does (default auto)")
 
 
 def parse_push(text: str, direction: str) -> tuple[float, float, float]:

@@ -318,7 +318,8 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     from the facing) pushes the pelvis for 0.2 s as the push test does, drawn as a red arrow.
     `skill_sequence` ("walk:4,run:4", a dataset policy) switches skills as `play` does, until a
     fall or the sequence's end, through the routes of `switch_routes` (skills.read_routes) if given,
-    leaving the skills of `finish_cycle` ("backflip,run") only where their cycle ends."""
+    leaving the skills of `finish_cycle` (as `play --finish-cycle`: names, "auto" or "none", None
+    for auto) only where their cycle ends."""
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import skills
 
@@ -330,8 +331,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
         if switch_routes is not None:
             env.routes = skills.read_routes(switch_routes, [c.name for c in env.clips])
-        if finish_cycle is not None:
-            env.finish_cycle = skills.read_skills(finish_cycle, [c.name for c in env.clips], "--finish-cycle")
+        env.finish_cycle = skills.finish_cycle_skills(env, finish_cycle)
         switches = skills.switch_steps(env, sequence)
         total = sum(skills.segment_steps(env, sequence))
         limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))

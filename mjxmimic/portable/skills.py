@@ -136,6 +136,30 @@ def read_routes(path: Path, names: list[str]) -> dict[tuple[int, int], int]:
     return best_routes(trials, names, f"--switch-routes {path}")
 
 
+AIRBORNE_M = 0.2  # m: how high both feet of a clip's reference rise for `--finish-cycle auto` to wait for it
+
+
+def airborne_skills(env: CpuEnv) -> set[int]:
+    """The cyclic skills whose reference lifts both feet AIRBORNE_M or more off the ground at some
+    frame (a backflip, a jump, a cartwheel), which a switch had better leave where they end."""
+    from mjxmimic.motion.clip import lowest_points
+
+    feet = env.character.body_sets.get("feet")
+    if not feet:
+        return set()
+    return {i for i, clip in enumerate(env.clips)
+            if clip.loop and float(lowest_points(env.character, clip.qpos, feet).max()) >= AIRBORNE_M}
+
+
+def finish_cycle_skills(env: CpuEnv, text: str | None) -> set[int]:
+    """`--finish-cycle`: skill names, 'none', or 'auto' (the default, None: airborne_skills)."""
+    if text is None or text == "auto":
+        return airborne_skills(env)
+    if text == "none":
+        return set()
+    return read_skills(text, [c.name for c in env.clips], "--finish-cycle")
+
+
 def read_skills(text: str, names: list[str], flag: str) -> set[int]:
     """'backflip,run' -> the skills' numbers; an unknown name is a UserError naming `flag`."""
     picked = [n.strip() for n in text.split(",") if n.strip()]
