@@ -285,13 +285,9 @@ def run(args: argparse.Namespace) -> int:
     elif len(clips) > 1:
         entry = {} if args.switch_entry is None else {"env.skill_switch_entry": args.switch_entry}
         env = CpuEnv(evaluation_config(apply_overrides(pf.config(), entry)), character, clips, pf.weights())
-        if args.switch_routes is not None:
-            from mjxmimic.portable.skills import read_routes
+        from mjxmimic.portable.skills import set_switch_options
 
-            env.routes = read_routes(args.switch_routes, names)
-        from mjxmimic.portable.skills import finish_cycle_skills
-
-        env.finish_cycle = finish_cycle_skills(env, args.finish_cycle)
+        set_switch_options(env, args.switch_routes, args.finish_cycle)
         if args.viewer:
             return _viewer_skills(env, pf.policy())
         if args.skill_sequence is not None:

@@ -131,10 +131,8 @@ class CpuEnv:
         if self.requested is None or self.requested == motion.clip:
             self.requested = None
             return False
-        if not skill_switch.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np):
-            return False
-        if motion.clip in self.finish_cycle and not skill_switch.cycle_ended(lib, motion.clip, np.float32(t_before),
-                                                                             motion.time, np):
+        if not skill_switch.may_switch(self.spec, motion.clip, self.requested, np.float32(t_before), motion.time, np,
+                                       finish_cycle=motion.clip in self.finish_cycle):
             return False
         self.resume_clip = motion.clip if not lib.loop[self.requested] and lib.loop[motion.clip] else None
         qpos, qvel, _, _ = step_lib.split_ball(self.spec, self.data.qpos, self.data.qvel)

@@ -61,19 +61,18 @@ def switched(spec: Spec, motion: Motion, clip: Any, qpos: Any, sim: Kin, xp: Any
                            settle=settle)
 
 
-def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
-    """Whether clip number `clip`, gone from t_before to t_after, may hand over to clip `to` now."""
-    return _may_switch(spec.lib, clip, to, t_before, t_after, motion_lib.ended(spec.lib, clip, t_after, xp), xp)
-
-
-def cycle_ended(lib: motion_lib.MotionLib, clip: Any, t_before: Any, t_after: Any, xp: Any) -> Any:
-    """Whether clip number `clip`, gone from t_before to t_after, passed the end of a cycle."""
-    return motion_lib.cycle_index(lib, clip, t_after, xp) > motion_lib.cycle_index(lib, clip, t_before, xp)
+def may_switch(spec: Spec, clip: Any, to: Any, t_before: Any, t_after: Any, xp: Any,
+               finish_cycle: bool = False) -> Any:
+    """Whether clip number `clip`, gone from t_before to t_after, may hand over to clip `to` now;
+    with `finish_cycle` a cyclic clip is left only where its cycle ends, as a one-off clip is."""
+    ended = motion_lib.ended(spec.lib, clip, t_after, xp)
+    return _may_switch(spec.lib, clip, to, t_before, t_after, ended, xp, finish_cycle)
 
 
 def _may_switch(lib: motion_lib.MotionLib, clip: Any, to: Any, t_before: Any, t_after: Any, ended: Any,
-                xp: Any) -> Any:
-    return (lib.loop[clip] & lib.loop[to]) | cycle_ended(lib, clip, t_before, t_after, xp) | ended
+                xp: Any, finish_cycle: bool = False) -> Any:
+    wrapped = motion_lib.cycle_index(lib, clip, t_after, xp) > motion_lib.cycle_index(lib, clip, t_before, xp)
+    return (lib.loop[clip] & lib.loop[to] & (not finish_cycle)) | wrapped | ended
 
 
 def maybe_switch_skill(spec: Spec, motion: Motion, t_before: Any, qpos: Any, stopped: Any, xp: Any,

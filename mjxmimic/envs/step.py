@@ -389,7 +389,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     targets = action_to_targets(spec.layout, action, ref_qpos, env.action_mode, env.action_scale, xp)
     nbody = spec.layout.body_mass.shape[0]
     rows = nbody if external_force is None else external_force.shape[0]  # a caller's may cover a ball's body
-    now = physics.qpos_qvel(state)[0] if spec.events else None  # where the character faces
+    facing_pushes = bool(spec.events) and env.push_directions == "table6"  # static: they need the pose
+    now = physics.qpos_qvel(state)[0] if facing_pushes else None
     events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, rows, xp,
                                         now)
     if events is not None or external_force is not None:

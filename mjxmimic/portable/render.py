@@ -329,9 +329,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         env = CpuEnv(evaluation_config(pf.config()), character, pf.clips(), pf.weights())
         skills.check_selectable(env)
         sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
-        if switch_routes is not None:
-            env.routes = skills.read_routes(switch_routes, [c.name for c in env.clips])
-        env.finish_cycle = skills.finish_cycle_skills(env, finish_cycle)
+        skills.set_switch_options(env, switch_routes, finish_cycle)
         switches = skills.switch_steps(env, sequence)
         total = sum(skills.segment_steps(env, sequence))
         limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))

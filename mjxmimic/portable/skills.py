@@ -160,6 +160,13 @@ def finish_cycle_skills(env: CpuEnv, text: str | None) -> set[int]:
     return read_skills(text, [c.name for c in env.clips], "--finish-cycle")
 
 
+def set_switch_options(env: CpuEnv, switch_routes: Path | None, finish_cycle: str | None) -> None:
+    """`--switch-routes` and `--finish-cycle` (play, render) onto the env's switches."""
+    if switch_routes is not None:
+        env.routes = read_routes(switch_routes, [c.name for c in env.clips])
+    env.finish_cycle = finish_cycle_skills(env, finish_cycle)
+
+
 def read_skills(text: str, names: list[str], flag: str) -> set[int]:
     """'backflip,run' -> the skills' numbers; an unknown name is a UserError naming `flag`."""
     picked = [n.strip() for n in text.split(",") if n.strip()]

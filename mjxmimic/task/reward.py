@@ -44,25 +44,31 @@ def end_effectors(layout: Layout, k: Kin, xp: Any) -> Any:
     return xp.concatenate([rel[:, :2], ee[:, 2:]], axis=-1)
 
 
-def pose_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
+def _pose_sum(layout: Layout, sim: Kin, ref: Kin, xp: Any, quat_weight: Any, hinge_weight: Any) -> Any:
     quat_angle, hinge_angle = joint_angles(layout, sim, ref, xp)
-    return xp.sum(layout.quat_weight * quat_angle**2) + xp.sum(layout.hinge_weight * hinge_angle**2)
+    return xp.sum(quat_weight * quat_angle**2) + xp.sum(hinge_weight * hinge_angle**2)
+
+
+def _velocity_sum(layout: Layout, sim: Kin, ref: Kin, xp: Any, quat_weight: Any, hinge_weight: Any) -> Any:
+    ang = xp.sum((sim.qvel[layout.v_ang] - ref.qvel[layout.v_ang]) ** 2, axis=-1)
+    hv = layout.v_scalar[3:]
+    return xp.sum(quat_weight * ang) + xp.sum(hinge_weight * (sim.qvel[hv] - ref.qvel[hv]) ** 2)
+
+
+def pose_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
+    return _pose_sum(layout, sim, ref, xp, layout.quat_weight, layout.hinge_weight)
 
 
 def velocity_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
-    ang = xp.sum((sim.qvel[layout.v_ang] - ref.qvel[layout.v_ang]) ** 2, axis=-1)
-    hv = layout.v_scalar[3:]
-    return xp.sum(layout.quat_weight * ang) + xp.sum(layout.hinge_weight * (sim.qvel[hv] - ref.qvel[hv]) ** 2)
+    return _velocity_sum(layout, sim, ref, xp, layout.quat_weight, layout.hinge_weight)
 
 
 def plain_pose_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
-    quat_angle, hinge_angle = joint_angles(layout, sim, ref, xp)
-    return xp.sum(quat_angle**2) + xp.sum(hinge_angle**2)
+    return _pose_sum(layout, sim, ref, xp, 1.0, 1.0)
 
 
 def plain_velocity_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
-    hv = layout.v_scalar[3:]
-    return xp.sum((sim.qvel[layout.v_ang] - ref.qvel[layout.v_ang]) ** 2) + xp.sum((sim.qvel[hv] - ref.qvel[hv]) ** 2)
+    return _velocity_sum(layout, sim, ref, xp, 1.0, 1.0)
 
 
 def end_effector_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
