@@ -32,6 +32,7 @@ else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2)
 train() {  # NAME ARGS...
   local name=$1; shift
   local left=$(( deadline - $(date +%s) )) folder=--out
+  if [ "$left" -le 0 ]; then echo "runs/$name: not started, no time left in this call" > "$OUT/$name.log"; return; fi
   if [ -d "runs/$name/checkpoints" ]; then  # resumed: of ARGS, only what a resume may change
     folder=--resume
     local keep=()
@@ -75,6 +76,7 @@ done
 for n in "${names[@]}"; do
   cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
   echo "== $n"; tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
+  [ -f "runs/$n/metrics.jsonl" ] || continue
   python3 - "runs/$n" <<'PY'
 import json, sys
 for line in open(sys.argv[1] + "/metrics.jsonl"):
