@@ -175,6 +175,48 @@ def test_two_clip_library_samples_each_clips_frames(project_clips, character):
                 np.testing.assert_allclose(a, b, atol=1e-6)
 
 
+def _knee_wave(character, base, loop):
+    """`base`'s first pose with the right knee swinging as a sine, 30 frames a second for one 1 s
+    cycle: a smooth motion whose velocity is known. (clip, knee's qvel index, its speed at t)"""
+    joint = character.model.joint("right_knee")
+    t = np.arange(31) / 30.0
+    qpos = np.repeat(base.qpos[:1], len(t), axis=0)
+    qpos[:, joint.qposadr[0]] = -1.0 + 0.8 * np.sin(2 * np.pi * t)
+    clip = Clip(name="knee_wave", path=None, loop=loop, durations=np.full(len(t), 1 / 30.0), qpos=qpos)
+    return clip, int(joint.dofadr[0]), lambda s: 0.8 * 2 * np.pi * np.cos(2 * np.pi * s)
+
+
+@pytest.mark.parametrize("loop", [True, False])
+def test_central_velocities_do_not_lead_the_pose(project_clips, character, loop):
+    """Blended forward differences lead a smooth motion by half a frame; central ones track it."""
+    clip, dof, speed = _knee_wave(character, project_clips["slow_walk"], loop)
+    errors = {}
+    for velocity in ("forward", "central"):
+        lib = motion.build_motion_lib([clip], character, velocity=velocity)
+        times = np.linspace(0.0, 0.99, 100) if loop else np.linspace(0.04, 0.95, 100)  # not the ends
+        errors[velocity] = max(abs(motion.sample(lib, 0, np.float32(s))[1][dof] - speed(s)) for s in times)
+        for f in (0, 7, 29):  # frames and poses are the same either way
+            np.testing.assert_allclose(motion.sample(lib, 0, np.float32(f / 30.0))[0], clip.qpos[f], atol=1e-5)
+    peak = 0.8 * 2 * np.pi
+    assert errors["forward"] > 0.08 * peak  # about half a frame's change of a 5 rad/s swing
+    assert errors["central"] < 0.2 * errors["forward"]
+
+
+def test_the_config_key_picks_the_reference_velocity(project_clips, character):
+    from mjxmimic.core.config import make_config
+    from mjxmimic.envs.step import build
+
+    with pytest.raises(UserError, match="clip.velocity"):
+        make_config("cpu", {"clip.velocity": "spline"})
+    clips = [project_clips["slow_walk"]]
+    built = {}
+    for velocity in ("forward", "central"):
+        _, spec = build(make_config("cpu", {"clip.velocity": velocity}), character, clips, np)
+        built[velocity] = spec.lib.qvel
+        np.testing.assert_array_equal(built[velocity], motion.build_motion_lib(clips, character, velocity=velocity).qvel)
+    assert not np.allclose(built["forward"], built["central"])
+
+
 def test_draw_clip_follows_the_weights(project_clips, character):
     clips = [project_clips[n] for n in ("slow_walk", "squat", "wave", "squat")]
     weights = np.array([1.0, 3.0, 0.0, 2.0])

@@ -3,8 +3,8 @@ written. The reference's joint velocities are the clip's forward differences, on
 blended between frames (`mjxmimic.motion.library.sample`); between two frames the reference pose
 is a slerp, whose derivative is that segment's forward difference alone. E_vel (plain sum over
 the joints) of the reference's velocity against its pose's derivative, mean over one cycle of
-each (cyclic) clip of the policy file, beside the same with central differences blended
-instead.
+each clip of the policy file, beside the same with central differences blended instead
+(`clip.velocity=central`).
 
     python experiments/paper_form/reference_velocity.py POLICY.npz [SAMPLES] > reference_velocity.json
 """
@@ -30,21 +30,15 @@ def main() -> None:
     lib, layout, kin = env.spec.lib, env.spec.layout, env.physics.kinematics
     velocity = next(t for t in R.terms("paper") if t.name == "velocity")
     out = {"policy": sys.argv[1], "samples_per_clip": samples, "clips": {}}
+    central = L.build_motion_lib(env.clips, pf.character(), velocity="central")  # clip.velocity=central
     for c, clip in enumerate(env.clips):
-        start, n = int(lib.clip_start[c]), int(lib.clip_frames[c])
-        times, forward = lib.times[start:start + n], lib.qvel[start:start + n]
-        central = forward.copy()
-        central[1:-1] = 0.5 * (forward[:-2] + forward[1:-1])
-        central[0] = 0.5 * (forward[-2] + forward[0])  # the cycle's last segment leads into its first frame
         errors = {"forward": [], "central": []}
         for t in np.linspace(2 * H, float(lib.duration[c]) - 2 * H, samples):
             q, v = L.sample(lib, c, np.float32(t), np)
             before, _ = L.sample(lib, c, np.float32(t - H), np)
             after, _ = L.sample(lib, c, np.float32(t + H), np)
             pose_rate = kin(q, L._segment_velocity(layout, before[None], after[None], np.array([2 * H]))[0])
-            i = min(int(np.searchsorted(times, t, side="right")) - 1, n - 2)
-            a = (t - times[i]) / (times[i + 1] - times[i])
-            v_central = (1 - a) * central[i] + a * central[i + 1]
+            v_central = L.sample(central, c, np.float32(t), np)[1]
             for name, vel in (("forward", v), ("central", v_central)):
                 errors[name].append(float(velocity.error(layout, kin(q, vel), pose_rate, np)))
         out["clips"][clip.name] = {

@@ -21,6 +21,9 @@ class CharacterConfig:
 class ClipConfig:
     name: str = "slow_walk"  # NAME (see `mjxmimic clips list`) or PATH
     fall_contact: str = "auto"  # auto: by clip name (DEEPMIMIC.md); else a body set like "all-feet"
+    # reference joint velocities between frames: forward differences blended (they lead the pose by
+    # half a frame) or central differences blended (experiments/paper_form/reference_velocity.py)
+    velocity: str = "forward"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -222,6 +225,7 @@ class Config:
 
 
 LR_SCHEDULES = ("constant", "linear", "cosine")
+REFERENCE_VELOCITIES = ("forward", "central")  # clip.velocity: how frames give the reference its velocities
 STD_MODES = ("learned", "fixed")
 MATMUL_PRECISIONS = ("default", "BF16_BF16_F32", "TF32_TF32_F32", "F32_F32_F32")
 TASKS = ("heading", "strike", "throw")  # mjxmimic.task.goals
@@ -428,6 +432,7 @@ def validate(config: Config) -> None:
         (len(config.terrain.heightmap_shape) == 2 and min(config.terrain.heightmap_shape) >= 1,
          "terrain.heightmap_shape", "must be two positive sizes, rows,cols (e.g. 8,8)"),
         (config.terrain.heightmap_spacing_m > 0, "terrain.heightmap_spacing_m", "must be positive"),
+        (config.clip.velocity in REFERENCE_VELOCITIES, "clip.velocity", "must be 'forward' or 'central'"),
         (config.physics.backend in ("auto", "warp", "jax"), "physics.backend", "must be 'auto', 'warp' or 'jax'"),
         (config.physics.contacts_per_world >= 1, "physics.contacts_per_world", "must be at least 1"),
         (config.physics.constraints_per_world >= 1, "physics.constraints_per_world", "must be at least 1"),

@@ -118,7 +118,7 @@ def make_spec(config: Config, character: Character, scene: Scene, clips: list[An
             masks.append(fall_mask(scene, character, fall_contact_spec(config, clip.name)))
         except ValueError as err:
             raise UserError(f"config key 'clip.fall_contact': {err}") from None
-    lib = motion_lib.build_motion_lib(clips, character, weights)
+    lib = motion_lib.build_motion_lib(clips, character, weights, config.clip.velocity)
     entry = skill_switch.entry_grid(config, scene, lib, xp) if len(clips) > 1 else None
     if xp is not np:
         lib = lib._replace(**{k: xp.asarray(v) for k, v in lib._asdict().items() if k != "layout"})

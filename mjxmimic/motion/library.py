@@ -123,11 +123,34 @@ def _clip_weights(weights: Sequence[float] | None, count: int) -> tuple[np.ndarr
     return w.astype(np.float32), cdf.astype(np.float32)
 
 
+def _frame_velocities(seg: np.ndarray, loop: bool, yaw: float, velocity: str) -> np.ndarray:
+    """(F, nv) velocity at each frame from the F - 1 segments' `seg`. forward: each frame the
+    velocity of the segment it starts (blended between frames, they lead the slerped pose by half a
+    frame); central: the mean of the segments on either side. A cyclic clip's last frame is the
+    next cycle's first, turned by the cycle's yaw (the root's linear velocity is in world axes)."""
+    def turned(v: np.ndarray, angle: float) -> np.ndarray:
+        v = v.copy()
+        v[0:3] = quat.rotate_yaw(v[0:3], np.asarray(angle))
+        return v
+
+    if velocity == "forward":
+        first = seg[0]
+        inner = seg[1:]
+    elif velocity == "central":
+        first = 0.5 * (turned(seg[-1], -yaw) + seg[0]) if loop else seg[0]
+        inner = 0.5 * (seg[:-1] + seg[1:])
+    else:
+        raise ValueError(f"reference velocity {velocity!r}: expected forward or central")
+    last = turned(first, yaw) if loop else seg[-1]
+    return np.concatenate([first[None], inner, last[None]], axis=0)
+
+
 def build_motion_lib(clips: Sequence[Any], character: Character,
-                     weights: Sequence[float] | None = None) -> MotionLib:
+                     weights: Sequence[float] | None = None, velocity: str = "forward") -> MotionLib:
     """Concatenate clips (mjxmimic.motion.clip.Clip) into one library, computing velocities.
 
-    `weights` (one per clip, default uniform) set how often `draw_clip` picks each clip.
+    `weights` (one per clip, default uniform) set how often `draw_clip` picks each clip;
+    `velocity` (config key clip.velocity) how frames give the reference its velocities.
     """
     if len(clips) == 0:
         raise UserError("a motion library needs at least one clip")
@@ -146,15 +169,10 @@ def build_motion_lib(clips: Sequence[Any], character: Character,
         vel = _fill_from_neighbours(vel, moving)
         first_yaw, last_yaw = quat.heading(q[0, 3:7]), quat.heading(q[-1, 3:7])
         yaw = float(quat.wrap_angle(last_yaw - first_yaw)) if clip.loop else 0.0
-        if clip.loop:  # the last frame starts the next cycle: its velocity is the first's, turned
-            last = vel[0].copy()
-            last[0:3] = quat.rotate_yaw(vel[0, 0:3], np.asarray(yaw))
-        else:
-            last = vel[-1]
         clip_times = np.concatenate([[0.0], np.cumsum(dur)]).astype(np.float32)
         step, grid = _time_grid(clip_times, np.float32(dur.sum()))
         qpos.append(q)
-        qvel.append(np.concatenate([vel, last[None]], axis=0))
+        qvel.append(_frame_velocities(vel, bool(clip.loop), yaw, velocity))
         times.append(clip_times)
         frame_clip.append(np.full(len(q), c))
         starts.append(start)
