@@ -10,7 +10,6 @@
 # Lane 2: the same three with the preset as it is (released form), kept this time (issues 13, 14).
 # Lane 3: the max-of-clips walker with the heading task (issue 14), then the dog's trot (issue
 # 18), both on the paper form as written. Lane 4: the dog's pace and canter, likewise.
-# Call 3 packs lane 2's policies only when WITH_RELEASED=1 ($OUT brings back at most 64 MiB).
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
@@ -21,8 +20,4 @@ lane2="w100|--clip walk --preset gpu;r100|--clip run --preset gpu;b100|--clip ba
 lane3="whp|--clip walker --task heading --set reward.combine=max $paper;dtp|--clip trot $dog"
 lane4="dpp|--clip pace $dog;dcp|--clip canter $dog"
 pack=none; [ "$1" = 3 ] && pack=policies
-if [ "$1" = 3 ] && [ "${WITH_RELEASED:-0}" != 1 ]; then
-  PACK=$pack bash experiments/device_train.sh "$2" "$lane1" "$lane3" "$lane4"
-else
-  PACK=$pack bash experiments/device_train.sh "$2" "$lane1" "$lane2" "$lane3" "$lane4"
-fi
+PACK=$pack bash experiments/device_train.sh "$2" "$lane1" "$lane2" "$lane3" "$lane4"

@@ -32,7 +32,7 @@ else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2)
 train() {  # NAME ARGS...
   local name=$1; shift
   local left=$(( deadline - $(date +%s) )) folder=--out
-  if [ "$left" -le 0 ]; then echo "runs/$name: not started, no time left in this call" > "$OUT/$name.log"; return; fi
+  if [ "$left" -le 0 ]; then echo "runs/$name: not started, no time left in this call"; return; fi
   if [ -d "runs/$name/checkpoints" ]; then  # resumed: of ARGS, only what a resume may change
     folder=--resume
     local keep=()
@@ -73,10 +73,12 @@ while kill -0 "${pids[@]}" 2>/dev/null; do
   for n in "${names[@]}"; do cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null; done
   sleep 15
 done
+started=()  # a run its lane had no time for has no folder, log or metrics to report or pack
+for n in "${names[@]}"; do [ -d "runs/$n" ] && started+=("$n"); done
+names=(${started[@]+"${started[@]}"})
 for n in "${names[@]}"; do
   cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
   echo "== $n"; tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
-  [ -f "runs/$n/metrics.jsonl" ] || continue
   python3 - "runs/$n" <<'PY'
 import json, sys
 for line in open(sys.argv[1] + "/metrics.jsonl"):
