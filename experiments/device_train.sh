@@ -12,6 +12,12 @@
 # together in bench.tgz), so that a lane can measure on its GPU before it trains.
 # Several lanes with a GPU for each (of those CUDA_VISIBLE_DEVICES names, else of the machine): one
 # GPU per lane; otherwise they share the GPUs (one lane alone trains data-parallel).
+# A lane that starts with "@GPUS[/MIN] " (e.g. "@2,3/200 ") trains on those GPUs (data-parallel
+# over them) and starts a run only while at least MIN seconds of the call are left (so that a
+# time-to-skill run is not cut in two).
+# A NAME that starts with "warm_" only builds and compiles (run.max_seconds=1), so that the
+# runs after it load their programs from the compilation cache. Runs that are done (eval.json)
+# and warm-ups that ran are skipped.
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
@@ -32,7 +38,8 @@ else export XLA_PYTHON_CLIENT_MEM_FRACTION=$(python3 -c "print(round(0.75/$#, 2)
 train() {  # NAME ARGS...
   local name=$1; shift
   local left=$(( deadline - $(date +%s) )) folder=--out
-  if [ "$left" -le 0 ]; then echo "runs/$name: not started, no time left in this call"; return; fi
+  if [ -f "runs/$name/eval.json" ] || { [[ $name == warm_* ]] && [ -d "runs/$name" ]; }; then return; fi  # done
+  if [ "$left" -le "${min_left:-0}" ]; then echo "runs/$name: not started, $left s left in this call"; return; fi
   if [ -d "runs/$name/checkpoints" ]; then  # resumed: of ARGS, only what a resume may change
     folder=--resume
     local keep=()
@@ -42,8 +49,9 @@ train() {  # NAME ARGS...
     done
     set -- "${keep[@]}"
   fi
+  local limit=$left; [[ $name == warm_* ]] && limit=1
   timeout -s INT $((left + 60)) python3 -m mjxmimic.cli train "$folder" "runs/$name" "$@" \
-    --set run.max_seconds=$left > "$OUT/$name.log" 2>&1
+    --set run.max_seconds=$limit > "$OUT/$name.log" 2>&1
 }
 
 bench() {  # NAME ARGS...
@@ -56,10 +64,16 @@ names=()
 pids=()
 i=0
 for lane in "$@"; do
+  lane_gpus="" min_left=0
+  if [[ $lane == @* ]]; then
+    opts=${lane%% *}; lane=${lane#* }; opts=${opts#@}
+    lane_gpus=${opts%%/*}; [[ $opts == */* ]] && min_left=${opts#*/}
+  fi
   IFS=';' read -ra specs <<< "$lane"
   for spec in "${specs[@]}"; do [[ $spec == bench_* ]] || names+=("${spec%%|*}"); done
   (
-    if [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=${gpus[$i]}; fi
+    if [ -n "$lane_gpus" ]; then export CUDA_VISIBLE_DEVICES=$lane_gpus
+    elif [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=${gpus[$i]}; fi
     for spec in "${specs[@]}"; do
       job=train; [[ $spec == bench_* ]] && job=bench
       # shellcheck disable=SC2086

@@ -12,6 +12,7 @@ import importlib
 import io
 import sys
 
+from mjxmimic.core import compile_cache
 from mjxmimic.core.errors import UserError
 
 COMMANDS = {
@@ -64,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command in USES_MJX:
         _import_mjx_quietly()
+        compile_cache.enable()
     module = importlib.import_module(COMMANDS[args.command][0])
     try:
         return int(module.run(args) or 0)

@@ -2,6 +2,7 @@
 the env tests use the project's own clips so that nothing skips without it. One compiled env per
 session, and JAX's persistent compilation cache (.pytest_cache/jax), keep the fast tier fast."""
 
+import os
 from pathlib import Path
 
 import jax
@@ -10,7 +11,9 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 DEEPMIMIC = REPO.parent / "shared" / "deepmimic"
 
-jax.config.update("jax_compilation_cache_dir", str(REPO / ".pytest_cache" / "jax"))
+# the commands' own cache (mjxmimic.core.compile_cache), in-process and in subprocesses, is this one
+os.environ["MJXMIMIC_COMPILE_CACHE"] = str(REPO / ".pytest_cache" / "jax")
+jax.config.update("jax_compilation_cache_dir", os.environ["MJXMIMIC_COMPILE_CACHE"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 

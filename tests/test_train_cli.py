@@ -242,7 +242,8 @@ def test_under_warp_nothing_runs_until_every_compilation_has_finished(tmp_path, 
     """Under MuJoCo Warp a running program captures CUDA graphs, and a capture fails when another
     thread loads kernel modules or autotunes meanwhile (compiling does both): the first program
     that runs (the env reset) waits for the train step's, the reset's and the evaluator's
-    compilations; elsewhere the evaluator may still be compiling while training starts."""
+    compilations; elsewhere the evaluator may still be compiling while training starts. Under
+    Warp the three are traced in one order in the main thread first."""
     import threading
 
     from mjxmimic.learn.ppo import Trainer
@@ -251,19 +252,29 @@ def test_under_warp_nothing_runs_until_every_compilation_has_finished(tmp_path, 
     events, reset_ran = [], threading.Event()
     compile_step, compile_reset, compile_eval, reset_envs = (
         Trainer.compile_train_step, Trainer.compile_reset, Evaluator.compile, Trainer.reset_envs)
+    traced = []
 
-    def step(self):
-        out = compile_step(self)
+    def tracing(name, method):
+        def trace(self, *args):
+            traced.append((name, threading.current_thread() is threading.main_thread()))
+            return method(self, *args)
+        return trace
+
+    for cls, method in ((Trainer, "lower_train_step"), (Trainer, "lower_reset"), (Evaluator, "lower")):
+        monkeypatch.setattr(cls, method, tracing(method, getattr(cls, method)))
+
+    def step(self, *lowered):
+        out = compile_step(self, *lowered)
         events.append("step compiled")
         return out
 
-    def reset_compile(self):
-        compile_reset(self)
+    def reset_compile(self, *lowered):
+        compile_reset(self, *lowered)
         events.append("reset compiled")
 
-    def evaluator(self, params):
+    def evaluator(self, params, *lowered):
         reset_ran.wait(timeout=5.0)  # a compilation that lasts until training starts, if it does
-        compile_eval(self, params)
+        compile_eval(self, params, *lowered)
         events.append("evaluator compiled")
 
     def reset(self, key):
@@ -280,6 +291,8 @@ def test_under_warp_nothing_runs_until_every_compilation_has_finished(tmp_path, 
     before_reset = set(events[:events.index("reset")])
     assert {"step compiled", "reset compiled"} <= before_reset, events
     assert ("evaluator compiled" in before_reset) == (backend == "mjx-warp"), events
+    if backend == "mjx-warp":  # traced in one order in the main thread: Warp's call names follow it
+        assert traced == [("lower_train_step", True), ("lower_reset", True), ("lower", True)], traced
 
 
 @pytest.mark.parametrize("watch", [True, False])

@@ -318,15 +318,24 @@ class Trainer:
         per_env = lambda x: bat if getattr(x, "ndim", 0) >= 1 and x.shape[0] == n else rep
         return tree.replace(env_state=jax.tree_util.tree_map(per_env, ts.env_state))
 
-    def compile_train_step(self) -> Callable[[TrainState], tuple[TrainState, dict]]:
-        """`train_step` compiled ahead of time from the state's shapes alone, so that it can
-        compile in a thread while the reset and the evaluator compile."""
-        return self.train_step.lower(self.abstract_state).compile()
+    def lower_train_step(self) -> jax.stages.Lowered:
+        """`train_step` traced from the state's shapes alone."""
+        return self.train_step.lower(self.abstract_state)
 
-    def compile_reset(self) -> None:
-        """The env reset compiled ahead of time from shapes alone (then used by `reset_envs`)."""
+    def compile_train_step(self, lowered: jax.stages.Lowered | None = None
+                           ) -> Callable[[TrainState], tuple[TrainState, dict]]:
+        """`train_step` compiled ahead of time (from `lowered`, else traced here), so that it can
+        compile in a thread while the reset and the evaluator compile."""
+        return (lowered or self.lower_train_step()).compile()
+
+    def lower_reset(self) -> jax.stages.Lowered:
+        """The env reset traced from shapes alone."""
         keys = jax.eval_shape(lambda k: jax.random.split(k, self.config.ppo.num_envs), jax.random.PRNGKey(0))
-        self._reset = self._reset.lower(jax.ShapeDtypeStruct(keys.shape, keys.dtype, sharding=self.batch_sharded)).compile()
+        return self._reset.lower(jax.ShapeDtypeStruct(keys.shape, keys.dtype, sharding=self.batch_sharded))
+
+    def compile_reset(self, lowered: jax.stages.Lowered | None = None) -> None:
+        """The env reset compiled ahead of time (then used by `reset_envs`)."""
+        self._reset = (lowered or self.lower_reset()).compile()
 
     # ---- policy ----------------------------------------------------------------------------
     def make_policy(self, params: dict, deterministic: bool = True) -> Callable:

@@ -156,12 +156,17 @@ class Evaluator:
                                                               self.num_episodes, clip), static_argnums=2)
         self._compiled: dict[bool, Callable] = {}
 
-    def compile(self, params: Any) -> None:
-        """Compile ahead of time for parameters shaped like `params` (arrays or their shapes), so
-        that the first evaluation does not wait for it (the training loop runs this in a thread)."""
+    def lower(self, params: Any) -> dict[bool, jax.stages.Lowered]:
+        """The rollouts traced for parameters shaped like `params` (arrays or their shapes)."""
         key, clip = jax.random.PRNGKey(0), jnp.zeros((), jnp.int32)
-        for deterministic in (True, False) if self.stochastic else (True,):
-            self._compiled[deterministic] = self._run.lower(params, key, deterministic, clip).compile()
+        return {deterministic: self._run.lower(params, key, deterministic, clip)
+                for deterministic in ((True, False) if self.stochastic else (True,))}
+
+    def compile(self, params: Any, lowered: dict[bool, jax.stages.Lowered] | None = None) -> None:
+        """Compile ahead of time (from `lowered`, else traced here), so that the first evaluation
+        does not wait for it (the training loop runs this in a thread)."""
+        for deterministic, program in (lowered or self.lower(params)).items():
+            self._compiled[deterministic] = program.compile()
 
     def _episodes(self, params: Any, key: jax.Array, deterministic: bool, clip: jax.Array) -> dict:
         compiled = self._compiled.get(deterministic)

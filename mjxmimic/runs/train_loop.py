@@ -176,15 +176,21 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     # while training starts, except under MuJoCo Warp: there a running program captures CUDA graphs
     # in CUDA's global capture mode, which fails ("Warp CUDA error 901") if another thread
     # meanwhile loads a kernel module (tracing does) or autotunes (compiling does), so the
-    # evaluator compiles beside the other two and nothing runs before all three are done.
-    step_compiled = _in_background(trainer.compile_train_step)
-    reset_compiled = _in_background(trainer.compile_reset)
+    # evaluator compiles beside the other two and nothing runs before all three are done. There,
+    # too, the three are traced one after the other in this thread before any compiles: Warp names
+    # its foreign calls in the order they are first traced, and the compilation cache
+    # (mjxmimic.core.compile_cache) finds a program only under the same names.
     under_warp = env.backend == "mjx-warp"
+    abstract_params = export_params(trainer.abstract_state)
+    lowered = (trainer.lower_train_step(), trainer.lower_reset(), evaluator.lower(abstract_params)) if under_warp \
+        else (None, None, None)
+    step_compiled = _in_background(trainer.compile_train_step, lowered[0])
+    reset_compiled = _in_background(trainer.compile_reset, lowered[1])
     if under_warp:
-        evaluator.compile(export_params(trainer.abstract_state))  # here, while the other two compile
+        evaluator.compile(abstract_params, lowered[2])  # here, while the other two compile
     train_step = step_compiled.result()  # compiled once: it cannot recompile
     reset_compiled.result()
-    eval_compiled = None if under_warp else _in_background(evaluator.compile, export_params(trainer.abstract_state))
+    eval_compiled = None if under_warp else _in_background(evaluator.compile, abstract_params)
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}

@@ -1,0 +1,60 @@
+"""The time-to-skill table of `s14/` (issue 20): per run, its GPUs, seed, samples and seconds to
+the target NR (or its best NR when it never got there), its start (first iteration done), its
+evaluations' seconds and its steady samples/s; then the medians per setting and their ratios.
+
+    python experiments/multi_gpu/time_to_skill.py [experiments/multi_gpu/s14]
+"""
+
+import json
+import re
+import statistics
+import sys
+from pathlib import Path
+
+SETTINGS = {"b1": "1 GPU", "b2a": "2 GPUs, a", "b2d": "2 GPUs, d", "b2e": "2 GPUs, e"}
+
+
+def run_row(folder: Path) -> dict:
+    rows = [json.loads(line) for line in open(folder / "metrics.jsonl")]
+    evals = [r for r in rows if "eval/nr" in r]
+    end = next(r for r in rows if "run/samples" in r)
+    start = re.search(r"; (\d+) s since the start", (folder / "train.log").read_text())
+    setting, seed = folder.name.rsplit("_s", 1)
+    return {"run": folder.name, "setting": SETTINGS[setting], "seed": int(seed),
+            "samples_m": end["run/samples"] / 1e6, "seconds": end.get("run/time_to_skill_s"),
+            "best_nr": max(r["eval/nr"] for r in evals), "start_s": int(start.group(1)),
+            "eval_s": sum(r["eval/eval_seconds"] for r in evals),
+            "samples_per_s": end["run/samples_per_s_steady"]}
+
+
+def main(root: Path) -> None:
+    rows = [run_row(f) for f in sorted(root.iterdir()) if f.is_dir()]
+    print("| run | GPUs and setting | seed | samples to NR 0.75 | seconds to NR 0.75 | first iteration done | "
+          "evaluations | steady samples/s |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        reached = r["seconds"] is not None
+        samples = f"{r['samples_m']:.0f} M" if reached else f"not in {r['samples_m']:.0f} M (best {r['best_nr']:.3f})"
+        seconds = f"{r['seconds']:.0f} s" if reached else "-"
+        print(f"| `{r['run']}` | {r['setting']} | {r['seed']} | {samples} | {seconds} | {r['start_s']} s | "
+              f"{r['eval_s']:.0f} s | {r['samples_per_s'] / 1e3:,.1f} k |")
+    warm = [r for r in rows if r["start_s"] <= 25]  # the compilation cache and Warp's kernel cache warm
+    print("\nRuns that started warm (first iteration done within 25 s):")
+    medians = {}
+    for setting in SETTINGS.values():
+        done = [r for r in warm if r["setting"] == setting]
+        if not done:
+            continue
+        times = [r["seconds"] for r in done if r["seconds"] is not None]
+        medians[setting] = statistics.median(times) if len(times) == len(done) else None
+        print(f"- {setting}: {len(done)} runs, {len(times)} reached the target; "
+              f"seconds {sorted(round(t) for t in times)}" +
+              (f", median {medians[setting]:.0f} s" if medians[setting] else ", median undefined (misses)"))
+    one = medians.get("1 GPU")
+    for setting, value in medians.items():
+        if setting != "1 GPU" and one and value:
+            print(f"- ratio of medians, {setting} / 1 GPU: {value / one:.2f}")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent / "s14")
