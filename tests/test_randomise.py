@@ -30,6 +30,7 @@ RANDOMISED = {"env.friction_range": "0.3,0.6", "env.mass_range": "0.5,2.0"}
     ("env.friction_range", "1,inf", "env.friction_range", "finite"),
     ("env.mass_range", "1.1", "env.mass_range", "two factors"),
     ("env.mass_range", "heavy", "env.mass_range", "not a valid tuple"),
+    ("env.push_ramp_samples", -1, "env.push_ramp_samples", "must be >= 0"),
     ("env.reset_noise_rad", -0.1, "env.reset_noise_rad", "must be >= 0"),
     ("env.reset_velocity_range", "0.5,0.2", "env.reset_velocity_range", "0 <= lo <= hi"),
     ("env.reset_velocity_range", "-0.1,1", "env.reset_velocity_range", "0 <= lo <= hi"),
@@ -225,6 +226,51 @@ def test_off_by_default_the_model_and_the_pushes_are_as_before(residual_env):
         turn = 2.0 * np.pi * ((seed + events.GOLDEN * k) % 1.0)
         wrench = events.push(env, t, seed, 3, np)[ROOT_BODY]
         np.testing.assert_array_equal(wrench, np.float32([300.0 * np.cos(turn), 300.0 * np.sin(turn), 0, 0, 0, 0]))
+
+
+def test_the_curriculum_scales_every_push():
+    env = make_config("cpu", {"env.push_force_n": 300.0, "env.push_force_max_n": 900.0,
+                              "env.push_directions": "table6"}).env
+    qpos = np.zeros(7)
+    qpos[3] = 1.0
+    full = events.push(env, 2.05, 0.3, 3, np, qpos)
+    assert np.abs(full).max() > 300.0
+    np.testing.assert_allclose(events.push(env, 2.05, 0.3, 3, np, qpos, 0.25), 0.25 * full, rtol=1e-6)
+    assert not events.push(env, 2.05, 0.3, 3, np, qpos, 0.0).any()
+    assert events.external_force(("push",), env, 2.05, 0.3, 3, np, qpos, 0.5) == pytest.approx(0.5 * full)
+
+
+@pytest.mark.slow
+def test_the_env_pushes_by_the_curriculum_factor_and_keeps_it_through_restarts(character):
+    """MJX: the factor in the state's info scales the push the step applies, and an episode that
+    restarts keeps the factor the trainer set (a fresh episode must not push at full force)."""
+    from mjxmimic.envs.mjx_env import ImitationEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    config = make_config("cpu", {"env.events": "push", "env.push_force_n": 600.0, "env.push_ramp_samples": 10**6,
+                                 "physics.backend": "jax", "env.early_termination": False})
+    env = ImitationEnv(config, character, [load_clip_source("slow_walk", character)])
+    start = env.reset_at(jax.random.PRNGKey(0), 0.0)
+    assert float(start.info[events.PUSH_SCALE]) == 1.0
+    transition = jax.jit(env.transition)
+    zeros = jnp.zeros(env.action_size)
+
+    def speed_gained(scale: float) -> float:  # over the first push (at 2 s, 0.2 s long)
+        state = start.replace(info=start.info | {events.PUSH_SCALE: jnp.float32(scale)})
+        for _ in range(60):
+            state = transition(state, zeros)
+        before = np.asarray(state.pipeline_state.qvel[:2])
+        for _ in range(6):
+            state = transition(state, zeros)
+        return np.asarray(state.pipeline_state.qvel[:2]) - before
+
+    none, half, full = speed_gained(0.0), speed_gained(0.5), speed_gained(1.0)
+    assert np.linalg.norm(full - none) > 1.0  # 600 N for 0.2 s on a 45 kg body: about 2.7 m/s
+    assert np.linalg.norm(half - none) == pytest.approx(0.5 * np.linalg.norm(full - none), rel=0.2)
+
+    last = start.info | {"steps": jnp.int32(env.max_steps - 1), events.PUSH_SCALE: jnp.float32(0.25)}
+    restarted = jax.jit(env.step)(start.replace(info=last), zeros)
+    assert int(restarted.info["steps"]) == 0 and float(restarted.info[events.PUSH_SCALE]) == 0.25
 
 
 @pytest.mark.slow

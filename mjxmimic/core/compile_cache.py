@@ -5,7 +5,8 @@ Compilation is most of a short run's start; with the cache, a run whose programs
 shapes and settings as an earlier one's loads them from disk instead. The cache lives in
 MJXMIMIC_COMPILE_CACHE (a folder), by default ~/.cache/mjxmimic/xla (under XDG_CACHE_HOME when
 set); MJXMIMIC_COMPILE_CACHE=off turns it off, and a JAX_COMPILATION_CACHE_DIR of the user's own
-is left to JAX. Least recently used entries go beyond MAX_BYTES.
+is left to JAX. Least recently used entries go beyond MAX_BYTES (where the `filelock` package,
+which JAX's eviction needs, is installed; else the folder is not bounded).
 """
 
 from __future__ import annotations
@@ -49,8 +50,11 @@ def enable() -> Path | None:
         print(f"mjxmimic: compilation cache off: {path}: {reason} (set {ENV} to another folder, or to off)",
               file=sys.stderr)
         return None
+    import importlib.util
+
     import jax
 
     jax.config.update("jax_compilation_cache_dir", str(path))
-    jax.config.update("jax_compilation_cache_max_size", MAX_BYTES)
+    if importlib.util.find_spec("filelock") is not None:
+        jax.config.update("jax_compilation_cache_max_size", MAX_BYTES)
     return path

@@ -64,6 +64,9 @@ class EnvConfig:
     # "any": each push in a direction uniform over the compass; "table6": forward, or to the left or
     # right, of the character's facing (half of the pushes forward), the directions Table 6 tests
     push_directions: str = "any"
+    # > 0: a curriculum: every push's force is scaled by (training samples so far) / this, up to 1,
+    # so that a policy learns the clip before the largest pushes come; 0: full force from the start
+    push_ramp_samples: int = 0
     # Domain randomisation (mjxmimic.physics.randomise), per episode; (1, 1) = off. Factors (lo,
     # hi): one for every geom's sliding friction, one per body for its mass and inertia.
     friction_range: tuple[float, ...] = (1.0, 1.0)
@@ -396,6 +399,7 @@ def validate(config: Config) -> None:
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
         (env.push_directions in ("any", "table6"), "env.push_directions", "must be 'any' or 'table6'"),
+        (env.push_ramp_samples >= 0, "env.push_ramp_samples", "must be >= 0 (0: no curriculum)"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
          "must be two factors lo,hi with 0 <= lo <= hi (finite)"),

@@ -22,6 +22,7 @@ from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics import randomise
 from mjxmimic.physics.mjx import MjxPhysics, resolve_backend
 from mjxmimic.task import goals, termination
+from mjxmimic.task.events import PUSH_SCALE
 
 patch_all()  # MJX's Newton solver can deadlock jaxlib 0.10's CPU LAPACK (see compat.py)
 
@@ -95,6 +96,8 @@ class ImitationEnv(Env):
                                            jax.random.uniform(key))
         zero = jnp.zeros(())
         info = {"rng": rng, "truncation": zero, "failed": zero, "clip_end": zero, **motion._asdict()}
+        if self.config.env.push_ramp_samples > 0:
+            info[PUSH_SCALE] = jnp.ones(())
         metrics = {k: zero for k in self.metric_keys}
         return State(pipeline_state=data, obs=obs, reward=zero, done=zero, metrics=metrics, info=info)
 
@@ -135,7 +138,8 @@ class ImitationEnv(Env):
         motion = step_lib.Motion(**{k: state.info[k] for k in _MOTION_KEYS})
         terms = self.eval_terminations if evaluation else self.train_terminations
         out = step_lib.control_step(self.spec, self.physics, state.pipeline_state, motion, action, terms,
-                                    external_force, grade_paper=evaluation)
+                                    external_force, grade_paper=evaluation,
+                                    push_scale=state.info.get(PUSH_SCALE, 1.0))
         f32 = jnp.float32
         info = dict(state.info, truncation=out.truncation.astype(f32), failed=out.failed.astype(f32),
                     clip_end=out.clip_end.astype(f32), **out.motion._asdict())

@@ -379,9 +379,10 @@ def best_clip_reward(spec: Spec, physics: Physics, sim: Any, qpos: Any, phase: A
 
 
 def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, action: Any,
-                 terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False) -> Result:
+                 terminations: tuple[str, ...], external_force: Any = None, grade_paper: bool = False,
+                 push_scale: Any = 1.0) -> Result:
     """One control step (the module docstring); no reset. `external_force` (nbody, 6) is added to
-    the events' own."""
+    the events' own; `push_scale` scales the events' (the push curriculum)."""
     xp, env, lib = physics.xp, spec.config.env, spec.lib
     clip = motion.clip
     t = motion.time + xp.asarray(spec.control_dt, xp.float32)
@@ -392,7 +393,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     facing_pushes = bool(spec.events) and env.push_directions == "table6"  # static: they need the pose
     now = physics.qpos_qvel(state)[0] if facing_pushes else None
     events = event_terms.external_force(spec.events, env, motion.steps * spec.control_dt, motion.event_seed, rows, xp,
-                                        now)
+                                        now, push_scale)
     if events is not None or external_force is not None:
         external_force = (0.0 if events is None else events) + (0.0 if external_force is None else external_force)
     scales = randomise.draw(env, motion.event_seed, nbody, xp)

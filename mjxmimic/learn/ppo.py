@@ -73,6 +73,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
 
 from mjxmimic.core.config import Config  # noqa: E402
 from mjxmimic.core.errors import UserError  # noqa: E402
+from mjxmimic.task.events import PUSH_SCALE  # noqa: E402
 
 BATCH_AXIS = "batch"
 MIN_STD = 0.001  # NormalTanhDistribution's default min_std
@@ -356,14 +357,26 @@ class Trainer:
         x = jnp.swapaxes(x, 0, 1).reshape((m, b // m) + rest)
         return self._constrain(x, P(None, BATCH_AXIS))
 
+    def _curriculum(self, env_state: Any, samples: jax.Array) -> tuple[Any, dict]:
+        """The env states with this iteration's push curriculum factor (env.push_ramp_samples:
+        samples so far over the ramp, up to 1), and the factor as a metric; unchanged without it."""
+        ramp = self.config.env.push_ramp_samples
+        if ramp <= 0:
+            return env_state, {}
+        scale = jnp.minimum(samples / ramp, 1.0)
+        info = dict(env_state.info, **{PUSH_SCALE: jnp.full_like(env_state.info[PUSH_SCALE], scale)})
+        return env_state.replace(info=info), {"curriculum/push_scale": scale}
+
     def _train_step(self, ts: TrainState) -> tuple[TrainState, dict]:
         cfg = self.config.ppo
         key, k_unroll, k_sgd = jax.random.split(ts.key, 3)
+        samples = ts.env_steps.hi.astype(jnp.float32) * 2.0**32 + ts.env_steps.lo.astype(jnp.float32)
+        env_state, curriculum = self._curriculum(ts.env_state, samples)
         policy = ppo_networks.make_inference_fn(self.networks)((ts.normalizer, ts.params.policy),
                                                                deterministic=False)
         policy = in_precision(policy, cfg.matmul_precision)
         env_state, data = acting.generate_unroll(
-            self._batched_env, ts.env_state, policy, k_unroll, cfg.unroll_length,
+            self._batched_env, env_state, policy, k_unroll, cfg.unroll_length,
             extra_fields=("truncation", _STEP_METRICS))
         # data leaves are time-major [T, B, ...].
         step_metrics = data.extras["state_extras"][_STEP_METRICS]
@@ -378,6 +391,7 @@ class Trainer:
             metrics["fall_rate"] = jnp.mean(fell)
             metrics["falls_per_episode_end"] = jnp.sum(fell) / jnp.maximum(jnp.sum(done), 1.0)
         metrics["truncation_rate"] = jnp.mean(data.extras["state_extras"]["truncation"])
+        metrics.update(curriculum)
 
         data = data._replace(extras={
             "policy_extras": data.extras["policy_extras"],
@@ -393,7 +407,6 @@ class Trainer:
             ppo_losses.compute_ppo_loss, ppo_network=self.networks, entropy_cost=cfg.entropy_cost,
             discounting=cfg.discounting, reward_scaling=cfg.reward_scaling, gae_lambda=cfg.gae_lambda,
             clipping_epsilon=cfg.clipping_epsilon, normalize_advantage=True)
-        samples = ts.env_steps.hi.astype(jnp.float32) * 2.0**32 + ts.env_steps.lo.astype(jnp.float32)
         learning_rate = learning_rate_at(self.config, samples)
         metrics["ppo/learning_rate"] = learning_rate
         optimizer = make_optimizer(self.config, learning_rate, self.env.action_size)

@@ -9,7 +9,8 @@ needs no random numbers and MJX and the CPU env push alike: any compass directio
 `env.push_directions=table6` forward or sideways of the character's facing. With `env.push_force_max_n` each
 push's force lies in [push_force_n, push_force_max_n], and with `env.push_interval_jitter_s` it
 starts up to that long after its interval's start, each by a sequence of its own of the same
-kind (`sequence`).
+kind (`sequence`). With `env.push_ramp_samples` the trainer scales every push by its
+curriculum's factor (`scale`), from 0 at the start of training to 1.
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from mjxmimic.core.errors import UserError
 from mjxmimic.task import push_protocol
 from mjxmimic.task.goals import PLASTIC
 
+# the push curriculum's factor (env.push_ramp_samples) in an env state's info: set by the trainer
+# before each iteration's rollout, kept through the episodes' restarts
+PUSH_SCALE = "push_scale"
 GOLDEN = 0.6180339887498949
 # (seed multiplier, step) of each push quantity's sequence frac(multiplier * seed + step * k): the
 # steps are the R2 sequence's (the plastic number's powers, as the goals use), irrational and
@@ -39,15 +43,17 @@ def sequence(which: tuple[float, float], event_seed: Any, k: Any) -> Any:
     return (multiplier * event_seed + step * k) % 1.0
 
 
-def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any, qpos: Any = None) -> Any:
+def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any, qpos: Any = None,
+         scale: Any = 1.0) -> Any:
     """The push force for a control step that starts `episode_time` seconds into the episode, the
-    character in `qpos` (needed by env.push_directions=table6)."""
+    character in `qpos` (needed by env.push_directions=table6), times the curriculum's `scale`."""
     k = xp.floor(episode_time / env.push_interval_s)
     since = episode_time - k * env.push_interval_s - env.push_interval_jitter_s * sequence(DELAY, event_seed, k)
     active = (k >= 1) & (since > -1e-6) & (since < env.push_duration_s - 1e-6)  # none in the first interval
     force = env.push_force_n
     if env.push_force_max_n > 0:
         force = force + (env.push_force_max_n - env.push_force_n) * sequence(FORCE, event_seed, k)
+    force = force * scale
     u = sequence(DIRECTION, event_seed, k)
     if env.push_directions == "table6":  # forward half the time, else to the left or to the right
         turn = xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
@@ -55,7 +61,7 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     return push_protocol.root_force(2.0 * xp.pi * u, force, active, nbody, xp)
 
 
-TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any, Any], Any]] = {"push": push}
+TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any, Any, Any], Any]] = {"push": push}
 
 
 def parse(names: str) -> tuple[str, ...]:
@@ -67,11 +73,12 @@ def parse(names: str) -> tuple[str, ...]:
 
 
 def external_force(names: tuple[str, ...], env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int,
-                   xp: Any, qpos: Any = None) -> Any:
-    """The summed force of the named events, or None when there are none."""
+                   xp: Any, qpos: Any = None, scale: Any = 1.0) -> Any:
+    """The summed force of the named events (each times the curriculum's `scale`), or None when
+    there are none."""
     if not names:
         return None
     total = 0.0
     for name in names:
-        total = total + TERMS[name](env, episode_time, event_seed, nbody, xp, qpos)
+        total = total + TERMS[name](env, episode_time, event_seed, nbody, xp, qpos, scale)
     return total
