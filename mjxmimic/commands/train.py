@@ -121,8 +121,11 @@ def run(args: argparse.Namespace) -> int:
 
         check_available()
     say = lambda text: print(f"mjxmimic train: {text}", file=sys.stderr, flush=True)  # noqa: E731
+    import jax
+
+    cache = jax.config.jax_compilation_cache_dir
     say(f"building the env ({config.clip.name}, {config.ppo.num_envs:,} envs); the first iteration "
-        f"then waits for JAX to compile the train step")
+        f"then waits for JAX to compile the train step" + (f" (or to load it from {cache})" if cache else ""))
     if not resume:
         # Build the env before writing anything: a bad clip is one error line and no folder.
         from mjxmimic.envs.mjx_env import make_env
