@@ -260,7 +260,7 @@ class _SeesPushScale(StandInEnv):
 def test_the_push_curriculum_ramps_with_the_samples_trained():
     """env.push_ramp_samples: each iteration's rollout steps with (samples so far) / ramp, up to 1,
     and logs it; without it the metric is not there."""
-    config = make_config("cpu", {"env.push_ramp_samples": 1024})  # 512 samples an iteration
+    config = make_config("cpu", {"env.events": "push", "env.push_ramp_samples": 1024})  # 512 samples an iteration
     trainer = make_trainer(_SeesPushScale(), config)
     ts = trainer.init(0)
     logged, seen = [], []

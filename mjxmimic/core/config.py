@@ -366,7 +366,8 @@ def evaluation_config(config: Config) -> Config:
     """The conditions that evaluation, push tests and playback measure in (EVALUATION.md): the
     run's settings without what only perturbs training (episode events such as pushes, domain
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
-    return apply_overrides(config, {"env.events": "", "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
+    return apply_overrides(config, {"env.events": "", "env.push_ramp_samples": 0,
+                                    "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
                                     "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0),
                                     "env.start_states_fraction": 0.0, "env.skill_switch_s": 0.0})
 
@@ -400,6 +401,8 @@ def validate(config: Config) -> None:
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
         (env.push_directions in ("any", "table6"), "env.push_directions", "must be 'any' or 'table6'"),
         (env.push_ramp_samples >= 0, "env.push_ramp_samples", "must be >= 0 (0: no curriculum)"),
+        (env.push_ramp_samples == 0 or "push" in env.events.replace(" ", "").split(","), "env.push_ramp_samples",
+         "ramps pushes: set env.events=push too"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
          "must be two factors lo,hi with 0 <= lo <= hi (finite)"),
