@@ -41,13 +41,11 @@ def enable() -> Path | None:
         return None
     try:
         path.mkdir(parents=True, exist_ok=True)
-        writable = os.access(path, os.W_OK)
+        problem = "" if os.access(path, os.W_OK) else "not writable"
     except OSError as err:
-        writable, reason = False, err.strerror or str(err)
-    else:
-        reason = "not writable"
-    if not writable:
-        print(f"mjxmimic: compilation cache off: {path}: {reason} (set {ENV} to another folder, or to off)",
+        problem = err.strerror or str(err)
+    if problem:
+        print(f"mjxmimic: compilation cache off: {path}: {problem} (set {ENV} to another folder, or to off)",
               file=sys.stderr)
         return None
     import importlib.util

@@ -20,7 +20,7 @@ clip ends are terminations (value target 0 beyond them).
 
 Several devices: with `jax.local_device_count() > 1` the env batch (and so the rollouts) is
 sharded across a 1-D `Mesh` of the local devices (`NamedSharding` on the batch axis; each device
-steps the physics of its own slice, `_PerDeviceEnv`), parameters, optimiser and normaliser state
+steps the physics of its own slice, `batched_env.PerDeviceEnv`), parameters, optimiser and normaliser state
 are replicated, and XLA inserts the all-reduces (gradients, advantage and normaliser statistics
 are global). Minibatch shuffling permutes within each device's shard and every minibatch takes an
 equal slice from every device, so no trajectory crosses devices.
@@ -73,11 +73,10 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
 
 from mjxmimic.core.config import Config  # noqa: E402
 from mjxmimic.core.errors import UserError  # noqa: E402
+from mjxmimic.learn.batched_env import BATCH_AXIS, STEP_METRICS, BatchedEnv, PerDeviceEnv  # noqa: E402
 from mjxmimic.task.events import PUSH_SCALE  # noqa: E402
 
-BATCH_AXIS = "batch"
 MIN_STD = 0.001  # NormalTanhDistribution's default min_std
-_STEP_METRICS = "_step_metrics"  # info key under which the batched env exposes state.metrics
 
 
 @flax.struct.dataclass
@@ -90,70 +89,6 @@ class TrainState:
     env_state: Any  # brax.envs.base.State, batched
     key: jax.Array  # raw uint32[2] PRNG key
     env_steps: brax_types.UInt64  # samples consumed so far; int(ts.env_steps) on the host
-
-
-class _BatchedEnv:
-    """vmap of the single env; copies each step's `state.metrics` into info so that Brax's
-    `generate_unroll` records them (it only records `info` fields)."""
-
-    def __init__(self, env):
-        self.env = env
-
-    @staticmethod
-    def _expose(state):
-        info = dict(state.info)
-        info.setdefault("truncation", jnp.zeros_like(state.done))
-        info[_STEP_METRICS] = dict(state.metrics)
-        return state.replace(info=info)
-
-    def reset(self, keys):
-        return self._expose(jax.vmap(self.env.reset)(keys))
-
-    def step(self, state, action):
-        inner = state.replace(info={k: v for k, v in state.info.items() if k != _STEP_METRICS})
-        return self._expose(jax.vmap(self.env.step)(inner, action))
-
-
-class _PerDeviceEnv:
-    """The batched env run by each device on its own slice of the batch (`shard_map`).
-
-    Under plain jit sharding XLA must split the physics itself, and it cannot split MuJoCo Warp's
-    kernels (foreign calls): it gathers the whole batch onto every device and steps it there.
-    Here each device steps its slice, with its own contact pool and CUDA graphs. `state_specs`
-    says which env leaves are per env (split) and which all worlds share (warp's counters: each
-    device keeps its own). Empty leaves (MJX fields of size 0) stay outside the shard_map and are
-    made again around it: under Shardy (jax 0.11.2, GPU), outputs that mixed them with others
-    crashed the compiler; whether GSPMD, used now, needs this was not tried."""
-
-    def __init__(self, env: _BatchedEnv, mesh: Mesh, abstract_state: Any, state_specs: Any):
-        leaves, self._tree = jax.tree_util.tree_flatten(abstract_state)
-        specs = self._tree.flatten_up_to(state_specs)
-        self._shapes = [(x.shape, x.dtype) for x in leaves]
-        self._kept = [x.size > 0 for x in leaves]
-        d = mesh.devices.size
-        self._local_shapes = [((x.shape[0] // d,) + x.shape[1:] if spec == P(BATCH_AXIS) else x.shape, x.dtype)
-                              for x, spec in zip(leaves, specs)]
-        kept_specs = [spec for spec, kept in zip(specs, self._kept) if kept]
-        batch = P(BATCH_AXIS)
-        self._reset = jax.shard_map(lambda keys: self._strip(env.reset(keys)), mesh=mesh, in_specs=batch,
-                                    out_specs=kept_specs, check_vma=False)
-        self._step = jax.shard_map(
-            lambda kept, action: self._strip(env.step(self._fill(kept, self._local_shapes), action)),
-            mesh=mesh, in_specs=(kept_specs, batch), out_specs=kept_specs, check_vma=False)
-
-    def _strip(self, state: Any) -> list:
-        return [x for x, kept in zip(jax.tree_util.tree_leaves(state), self._kept) if kept]
-
-    def _fill(self, kept_leaves: list, shapes: list) -> Any:
-        it = iter(kept_leaves)
-        return self._tree.unflatten([next(it) if kept else jnp.zeros(shape, dtype)
-                                     for kept, (shape, dtype) in zip(self._kept, shapes)])
-
-    def reset(self, keys: jax.Array) -> Any:
-        return self._fill(self._reset(keys), self._shapes)
-
-    def step(self, state: Any, action: jax.Array) -> Any:
-        return self._fill(self._step(self._strip(state), action), self._shapes)
 
 
 def _strip_weak_type(tree):
@@ -256,7 +191,7 @@ class Trainer:
     train_step: Callable[[TrainState], tuple[TrainState, dict]] = dataclasses.field(repr=False, default=None)
     # a TrainState's shapes and shardings: what compiles the step and the evaluator, running nothing
     abstract_state: Any = dataclasses.field(repr=False, default=None)
-    _batched_env: _BatchedEnv | _PerDeviceEnv = dataclasses.field(repr=False, default=None)
+    _batched_env: BatchedEnv | PerDeviceEnv = dataclasses.field(repr=False, default=None)
     _state_sharding: Any = dataclasses.field(repr=False, default=None)
     _reset: Callable = dataclasses.field(repr=False, default=None)
 
@@ -377,9 +312,9 @@ class Trainer:
         policy = in_precision(policy, cfg.matmul_precision)
         env_state, data = acting.generate_unroll(
             self._batched_env, env_state, policy, k_unroll, cfg.unroll_length,
-            extra_fields=("truncation", _STEP_METRICS))
+            extra_fields=("truncation", STEP_METRICS))
         # data leaves are time-major [T, B, ...].
-        step_metrics = data.extras["state_extras"][_STEP_METRICS]
+        step_metrics = data.extras["state_extras"][STEP_METRICS]
         # physics/* are events (e.g. reset_nan: states that turned NaN or exploded and were reset):
         # counted per iteration, not averaged.
         metrics = {k: jnp.sum(v) if k.startswith("physics/") else jnp.mean(v) for k, v in step_metrics.items()}
@@ -497,7 +432,7 @@ def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
     mesh = Mesh(np.array(devices), (BATCH_AXIS,))
     trainer = Trainer(env=env, config=config, networks=networks, mesh=mesh,
                       num_devices=d, samples_per_iteration=cfg.num_envs * cfg.unroll_length)
-    trainer._batched_env = _BatchedEnv(env)
+    trainer._batched_env = BatchedEnv(env)
 
     # Shardings of a TrainState, from shapes only (nothing runs).
     def abstract_init(key):
@@ -514,7 +449,7 @@ def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
         trainer._state_sharding)
     if d > 1:
         specs = jax.tree_util.tree_map(lambda sharding: sharding.spec, trainer._state_sharding.env_state)
-        trainer._batched_env = _PerDeviceEnv(trainer._batched_env, mesh, abstract.env_state, specs)
+        trainer._batched_env = PerDeviceEnv(trainer._batched_env, mesh, abstract.env_state, specs)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)
     trainer.train_step = jax.jit(trainer._train_step, donate_argnums=0,
                                  out_shardings=(trainer._state_sharding, trainer.replicated))
