@@ -227,7 +227,8 @@ class Trainer:
         """A fresh TrainState, placed on the mesh (env batch sharded, the rest replicated)."""
         key = jax.random.PRNGKey(seed)
         key, k_learner, k_env = jax.random.split(key, 3)
-        params, opt_state, normalizer = self.init_learner(k_learner)
+        # one program, not one small compile per operation of the networks' init (seconds on a GPU)
+        params, opt_state, normalizer = jax.jit(self.init_learner, out_shardings=self.replicated)(k_learner)
         ts = TrainState(params=params, optimizer_state=opt_state, normalizer=normalizer,
                         env_state=self.reset_envs(k_env), key=key,
                         env_steps=brax_types.UInt64(hi=0, lo=0))
