@@ -196,6 +196,15 @@ def test_pose_termination_ends_training_episodes_that_lose_the_reference(env, tr
         o = termination.Outcome(sim=sim, ref=ref, contacts=None, fall_mask=None, reference_geoms=None,
                                 diverged=False, max_joint_velocity=100.0, pose_termination_m=metres)
         assert bool(termination.pose_deviation(o, np)) == lost
+        # measured from the root, the same pose 0.5 m aside has not lost the reference
+        assert not bool(termination.pose_deviation(o._replace(pose_from_root=True), np))
+    qpos = np.asarray(standing.pipeline_state.qpos).copy()
+    qpos[1] += 0.5
+    qpos[2] += 0.5  # also 0.5 m higher: the height still counts
+    up = c_kin(env.model, qpos, np.asarray(standing.pipeline_state.qvel))
+    o = termination.Outcome(sim=up, ref=ref, contacts=None, fall_mask=None, reference_geoms=None, diverged=False,
+                            max_joint_velocity=100.0, pose_termination_m=0.3, pose_from_root=True)
+    assert bool(termination.pose_deviation(o, np))
     assert termination.training_list(0.3) == ("fall", "bad_state", "pose_deviation")
     assert "pose_deviation" not in termination.evaluation_list()
 
@@ -211,6 +220,11 @@ def test_pose_termination_in_the_env_is_a_training_failure(env, reset_at):
     assert float(after.metrics["lost_track"]) == 1.0 and float(after.done) == 1.0
     assert float(after.metrics["fell"]) == 0.0 and float(after.reward) == 0.0
     assert float(after.info["truncation"]) == 0.0  # a failure, not a timeout
+    from_root = ImitationEnv(apply_overrides(env.config, {"env.pose_termination_m": 0.3,
+                                                          "env.pose_termination_frame": "root"}),
+                             env.character, env.clips)
+    after = jax.jit(from_root.transition)(away, zero)
+    assert float(after.metrics["lost_track"]) == 0.0 and float(after.done) == 0.0
 
 
 @pytest.mark.slow

@@ -46,6 +46,10 @@ class EnvConfig:
     # is no better than falling (MimicKit's DeepMimic setup uses 1.0). 0 = off (DeepMimic's).
     # NR evaluation ignores it: EVALUATION.md ends episodes on falls only.
     pose_termination_m: float = 0.0
+    # "world": the bodies' centres compared where they are; "root": with the reference moved
+    # sideways onto the character's root first (heights kept), so that being pushed off the
+    # reference's path ends no episode and a policy may learn to recover, while a wrong pose does
+    pose_termination_frame: str = "world"
     # "total" (DeepMimic's): each joint's torque limit bounds its whole PD torque, damping included;
     # "proportional": the law of runs made before this key existed (mjxmimic.physics.pd says why not).
     torque_limit: str = "total"
@@ -341,6 +345,7 @@ def validate(config: Config) -> None:
         (env.episode_seconds > 0, "env.episode_seconds", "must be positive"),
         (env.max_joint_velocity > 0, "env.max_joint_velocity", "must be positive"),
         (env.pose_termination_m >= 0, "env.pose_termination_m", "must be >= 0 (0 = off)"),
+        (env.pose_termination_frame in ("world", "root"), "env.pose_termination_frame", "must be 'world' or 'root'"),
         (env.action_mode in ("absolute", "residual"), "env.action_mode", "must be 'absolute' or 'residual'"),
         (env.torque_limit in ("total", "proportional"), "env.torque_limit", "must be 'total' or 'proportional'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),

@@ -447,7 +447,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
                                   reference_geoms=spec.reference_geoms,
                                   diverged=sub.diverged, max_joint_velocity=env.max_joint_velocity,
                                   pose_termination_m=env.pose_termination_m,
-                                  pit_z=-spec.config.terrain.fall_margin_m if spec.terrain is not None else None)
+                                  pit_z=-spec.config.terrain.fall_margin_m if spec.terrain is not None else None,
+                                  pose_from_root=env.pose_termination_frame == "root")
     fired = {name: termination.TERMS[name](outcome, xp) for name in terminations}
     if settles and "pose_deviation" in fired:
         fired["pose_deviation"] = fired["pose_deviation"] & ~settling

@@ -24,6 +24,7 @@ class Outcome(NamedTuple):
     max_joint_velocity: float
     pose_termination_m: float
     pit_z: Any = None  # on a terrain: the root below this height fell into a gap or off the beam
+    pose_from_root: bool = False  # env.pose_termination_frame=root
 
 
 # a reference geom whose bounding sphere comes this close to the floor counts as touching it
@@ -53,8 +54,12 @@ def bad_state(o: Outcome, xp: Any) -> Any:
 
 
 def pose_deviation(o: Outcome, xp: Any) -> Any:
-    """Some body's centre is more than env.pose_termination_m from the reference's (training only)."""
-    gap = xp.sqrt(xp.sum((o.sim.xipos[1:] - o.ref.xipos[1:]) ** 2, axis=-1))
+    """Some body's centre is more than env.pose_termination_m from the reference's (training only;
+    with `pose_from_root`, from the reference's moved sideways onto the character's root)."""
+    ref = o.ref.xipos[1:]
+    if o.pose_from_root:
+        ref = ref + (o.sim.xipos[ROOT_BODY] - o.ref.xipos[ROOT_BODY]) * xp.asarray([1.0, 1.0, 0.0])
+    gap = xp.sqrt(xp.sum((o.sim.xipos[1:] - ref) ** 2, axis=-1))
     return xp.max(gap) > o.pose_termination_m
 
 
