@@ -1,6 +1,7 @@
 """The time-to-skill table of `s14/` (issue 20): per run, its GPUs, seed, samples and seconds to
 the target NR (or its best NR when it never got there), its start (first iteration done), its
-evaluations' seconds and its steady samples/s; then the medians per setting and their ratios.
+evaluations' seconds and its steady samples/s; then the medians per setting and their ratios,
+also as they would be if the evaluations, and the start, took no time.
 
     python experiments/multi_gpu/time_to_skill.py [experiments/multi_gpu/s14]
 """
@@ -54,6 +55,18 @@ def main(root: Path) -> None:
     for setting, value in medians.items():
         if setting != "1 GPU" and one and value:
             print(f"- ratio of medians, {setting} / 1 GPU: {value / one:.2f}")
+    # What the ratio would be if the evaluations, and then also the start, took no time: the
+    # part of the gap that the second GPU's training speed cannot close.
+    for label, cost in (("evaluations", lambda r: r["eval_s"]),
+                        ("evaluations and start", lambda r: r["eval_s"] + r["start_s"])):
+        less = {}
+        for setting in (s for s, value in medians.items() if value):  # settings that always reached it
+            done = [r for r in warm if r["setting"] == setting]
+            less[setting] = statistics.median(r["seconds"] - cost(r) for r in done)
+        for setting, value in less.items():
+            if setting != "1 GPU" and "1 GPU" in less:
+                print(f"- without the {label}: {setting} {value:.0f} s / 1 GPU {less['1 GPU']:.0f} s = "
+                      f"{value / less['1 GPU']:.2f}")
 
 
 if __name__ == "__main__":
