@@ -49,6 +49,18 @@ def test_fall_ends_the_episode_and_remaining_steps_count_zero():
     assert 0.0 < out["nr"] <= out["survival_s"] / 20.0 + 1e-6
 
 
+def test_the_evaluation_stops_once_every_episode_has_ended():
+    env = StandInEnv()
+    tracked = evaluate(env, perfect_policy(env), CONFIG, seed=0)
+    assert tracked["steps_run"] == 600  # nobody fell: the whole horizon
+    fallen = evaluate(env, zero_policy, CONFIG, seed=0)
+    assert fallen["fall_rate"] == 1.0
+    # the batch stopped at the last fall, not at the horizon (its episodes' mean survival is below that)
+    assert fallen["survival_s"] * 30 <= fallen["steps_run"] < 600
+    short = evaluate(StandInEnv(looping=False, clip_duration=2.0), perfect_policy(env), CONFIG, seed=1)
+    assert short["steps_run"] <= 60
+
+
 def test_non_looping_clip_runs_to_the_clip_end():
     env = StandInEnv(looping=False, clip_duration=2.0)
     out = evaluate(env, perfect_policy(env), CONFIG, seed=1)

@@ -59,9 +59,18 @@ def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: 
         state = jax.vmap(env.select)(acc["alive"], nxt, state)
         return (state, acc, task_acc, course), None
 
+    def running(carry):  # until the longest horizon, or sooner once every episode has ended
+        k, (_, acc, _, _) = carry
+        return (k < env.max_eval_horizon) & jnp.any(acc["alive"] & (k < horizon))
+
+    def step(carry):
+        k, inner = carry
+        return k + 1, body(inner, k)[0]
+
     start = (state, nr_rule.start((num_episodes,), jnp), goals.metrics_start(task, (num_episodes,), jnp), course)
-    (_, acc, task_acc, course), _ = jax.lax.scan(body, start, jnp.arange(env.max_eval_horizon))
+    steps_run, (_, acc, task_acc, course) = jax.lax.while_loop(running, step, (jnp.zeros((), jnp.int32), start))
     acc["horizon"] = horizon
+    acc["steps_run"] = steps_run
     acc["start_time"] = t0
     if task:
         acc["task"] = task_acc
@@ -85,6 +94,7 @@ def summarize(acc: dict, control_dt: float, task: str = "", course_length: float
     terrain the course's: distance before a fall, success)."""
     sums = {k: v for k, v in acc.items() if k in nr_rule.FIELDS}
     result = nr_rule.summarize(sums, acc["horizon"], control_dt)
+    result["steps_run"] = int(acc["steps_run"])  # control steps the batch ran (to its last episode's end)
     if task:
         result.update(goals.metrics_summarize(task, acc["task"], acc["horizon"], acc["failed"]))
     if "course" in acc:
@@ -116,6 +126,7 @@ def per_clip(env, run_clip: Callable[[jax.Array], dict]) -> dict:
     out = {key: float(sum(w * r[key] for w, r in zip(weights, results)))
            for key, value in results[0].items() if isinstance(value, (int, float)) and not isinstance(value, bool)}
     out["episodes"] = sum(r["episodes"] for r in results)
+    out["steps_run"] = sum(r["steps_run"] for r in results)
     for clip, r in zip(env.clips, results):
         out.update({f"clip/{clip.name}/{key}": r[key] for key in PER_CLIP_FIELDS})
     return out
