@@ -68,4 +68,4 @@ for run in runs/*/; do  # the runs not graded here: their best policy, to grade 
   exports+=($!)
 done
 [ ${#exports[@]} -gt 0 ] && wait "${exports[@]}"
-tar czf - --exclude=checkpoints --exclude=best runs | split -b 15M - "$OUT/policies.tgz."
+tar czf - --exclude=checkpoints --exclude=best --exclude=tb runs | split -b 15M - "$OUT/policies.tgz."

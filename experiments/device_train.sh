@@ -92,7 +92,7 @@ for n in "${names[@]}"; do [ -d "runs/$n" ] && started+=("$n"); done
 names=(${started[@]+"${started[@]}"})
 for n in "${names[@]}"; do
   cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
-  echo "== $n"; tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
+  echo "== $n"; [ -f "$OUT/$n.log" ] && tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
   python3 - "runs/$n" <<'PY'
 import json, sys
 for line in open(sys.argv[1] + "/metrics.jsonl"):
