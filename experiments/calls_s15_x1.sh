@@ -5,7 +5,8 @@
 # Warp too), against the twelfth session's run of the same seed (experiments/multi_gpu/s14/b1_s3:
 # first iteration at 21 s, evaluations 19 s, NR 0.75 after 50 M samples and 163 s).
 #   bash experiments/calls_s15_x1.sh
-# 1. A one-iteration run compiles everything and Warp's kernels (the cache and kernel cache warm).
+# 1. A one-iteration run compiles everything and Warp's kernels (Warp's kernel cache warm; its
+#    train step has another run.total_samples, so the profiled start compiled the backflip's).
 # 2. A profile of a warm start (run.max_seconds=1: it stops before the first iteration).
 # 3. The backflip to NR 0.75, seed 3, as b1_s3 was run.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
