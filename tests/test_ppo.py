@@ -105,6 +105,24 @@ def test_train_step_follows_the_schedule():
     assert trainer.train_step._cache_size() == 1
 
 
+def test_runs_that_differ_only_in_their_schedules_share_one_program():
+    """The learning rate's numbers, the sample budget and the push ramp are arguments of the
+    train step, not constants in it: another value gives the same program text (so the
+    compilation cache finds it), and the step follows the values it is given."""
+    def text(overrides):
+        trainer = make_trainer(StandInEnv(), make_config("cpu", overrides))
+        return trainer.lower_train_step().as_text(), trainer
+    base, _ = text({"ppo.learning_rate_schedule": "linear"})
+    other, trainer = text({"ppo.learning_rate_schedule": "linear", "ppo.learning_rate": 5e-4,
+                           "ppo.learning_rate_final": 5e-5, "run.total_samples": 1024})
+    assert other == base
+    step = trainer.compile_train_step()
+    ts, _ = step(trainer.init(0))
+    _, metrics = step(ts)  # after 512 of 1024 samples
+    assert float(metrics["ppo/learning_rate"]) == pytest.approx(5e-4 - 0.5 * (5e-4 - 5e-5), rel=1e-5)
+    assert text({"ppo.learning_rate_schedule": "cosine"})[0] != base  # the schedule's shape is the program's
+
+
 @pytest.mark.parametrize("mode", ["learned", "fixed"])
 def test_std_mode(mode):
     config = make_config("cpu", {"ppo.init_action_std": 0.3, "ppo.std_mode": mode})
@@ -129,7 +147,7 @@ def test_matmul_precision_reaches_the_network_products(precision):
     """Each product of the policy and value networks (rollout, loss, gradients) carries the
     chosen dot algorithm; "default" leaves every product as XLA would have it."""
     trainer = make_trainer(StandInEnv(), make_config("cpu", {"ppo.matmul_precision": precision}))
-    jaxpr = str(jax.make_jaxpr(trainer._train_step)(trainer.abstract_state))
+    jaxpr = str(jax.make_jaxpr(trainer._train_step)(trainer.abstract_state, trainer.train_step.values))
     tagged = jaxpr.count("precision=BF16_BF16_F32")
     if precision == "default":
         assert tagged == 0

@@ -118,14 +118,26 @@ def _init_output_layer(policy_params: dict, action_size: int, init_std: float) -
     return {**policy_params, "params": new_layers}
 
 
-def learning_rate_at(config: Config, samples: jax.Array) -> jax.Array:
-    """The learning rate after `samples` samples (ppo.learning_rate_schedule over run.total_samples)."""
-    cfg = config.ppo
-    start, final = cfg.learning_rate, cfg.learning_rate_final
-    progress = jnp.clip(jnp.asarray(samples, jnp.float32) / config.run.total_samples, 0.0, 1.0)
-    if cfg.learning_rate_schedule == "linear":
+def schedule_values(config: Config) -> dict[str, np.ndarray]:
+    """The numbers the run's schedules follow (learning rate, push curriculum). The train step
+    takes them as an argument instead of building them into its program, so that runs that differ
+    only in them (a sweep over the learning rate, another sample budget, a resume that changes
+    them) share one compiled program and its entry in the compilation cache."""
+    return {"total_samples": np.float32(config.run.total_samples),
+            "learning_rate": np.float32(config.ppo.learning_rate),
+            "learning_rate_final": np.float32(config.ppo.learning_rate_final),
+            "push_ramp_samples": np.float32(config.env.push_ramp_samples)}
+
+
+def learning_rate_at(config: Config, samples: jax.Array, values: dict | None = None) -> jax.Array:
+    """The learning rate after `samples` samples (ppo.learning_rate_schedule over run.total_samples;
+    the numbers from `values`, by default `schedule_values(config)`)."""
+    v = schedule_values(config) if values is None else values
+    start, final = v["learning_rate"], v["learning_rate_final"]
+    progress = jnp.clip(jnp.asarray(samples, jnp.float32) / v["total_samples"], 0.0, 1.0)
+    if config.ppo.learning_rate_schedule == "linear":
         return start + (final - start) * progress
-    if cfg.learning_rate_schedule == "cosine":
+    if config.ppo.learning_rate_schedule == "cosine":
         return final + 0.5 * (start - final) * (1.0 + jnp.cos(jnp.pi * progress))
     return jnp.asarray(start, jnp.float32)
 
@@ -180,7 +192,8 @@ def export_params(ts: TrainState) -> dict:
 
 @dataclasses.dataclass
 class Trainer:
-    """Built by `make_trainer`. `train_step` is the jitted iteration; `init(seed)` a fresh state."""
+    """Built by `make_trainer`. `train_step(ts)` is the jitted iteration (with the run's schedule
+    values bound: `_step(ts, values)` is the program itself); `init(seed)` a fresh state."""
 
     env: Any
     config: Config
@@ -188,7 +201,8 @@ class Trainer:
     mesh: Mesh
     num_devices: int
     samples_per_iteration: int
-    train_step: Callable[[TrainState], tuple[TrainState, dict]] = dataclasses.field(repr=False, default=None)
+    train_step: "BoundSchedule" = dataclasses.field(repr=False, default=None)
+    _step: Any = dataclasses.field(repr=False, default=None)
     # a TrainState's shapes and shardings: what compiles the step and the evaluator, running nothing
     abstract_state: Any = dataclasses.field(repr=False, default=None)
     _batched_env: BatchedEnv | PerDeviceEnv = dataclasses.field(repr=False, default=None)
@@ -263,7 +277,7 @@ class Trainer:
                            ) -> Callable[[TrainState], tuple[TrainState, dict]]:
         """`train_step` compiled ahead of time (from `lowered`, else traced here), so that it can
         compile in a thread while the reset and the evaluator compile."""
-        return (lowered or self.lower_train_step()).compile()
+        return BoundSchedule((lowered or self.lower_train_step()).compile(), self.train_step.values)
 
     def lower_reset(self) -> jax.stages.Lowered:
         """The env reset traced from shapes alone."""
@@ -293,21 +307,20 @@ class Trainer:
         x = jnp.swapaxes(x, 0, 1).reshape((m, b // m) + rest)
         return self._constrain(x, P(None, BATCH_AXIS))
 
-    def _curriculum(self, env_state: Any, samples: jax.Array) -> tuple[Any, dict]:
+    def _curriculum(self, env_state: Any, samples: jax.Array, ramp: jax.Array) -> tuple[Any, dict]:
         """The env states with this iteration's push curriculum factor (env.push_ramp_samples:
         samples so far over the ramp, up to 1), and the factor as a metric; unchanged without it."""
-        ramp = self.config.env.push_ramp_samples
-        if ramp <= 0:
+        if self.config.env.push_ramp_samples <= 0:
             return env_state, {}
         scale = jnp.minimum(samples / ramp, 1.0)
         info = dict(env_state.info, **{PUSH_SCALE: jnp.full_like(env_state.info[PUSH_SCALE], scale)})
         return env_state.replace(info=info), {"curriculum/push_scale": scale}
 
-    def _train_step(self, ts: TrainState) -> tuple[TrainState, dict]:
+    def _train_step(self, ts: TrainState, values: dict) -> tuple[TrainState, dict]:
         cfg = self.config.ppo
         key, k_unroll, k_sgd = jax.random.split(ts.key, 3)
         samples = ts.env_steps.hi.astype(jnp.float32) * 2.0**32 + ts.env_steps.lo.astype(jnp.float32)
-        env_state, curriculum = self._curriculum(ts.env_state, samples)
+        env_state, curriculum = self._curriculum(ts.env_state, samples, values["push_ramp_samples"])
         policy = ppo_networks.make_inference_fn(self.networks)((ts.normalizer, ts.params.policy),
                                                                deterministic=False)
         policy = in_precision(policy, cfg.matmul_precision)
@@ -343,7 +356,7 @@ class Trainer:
             ppo_losses.compute_ppo_loss, ppo_network=self.networks, entropy_cost=cfg.entropy_cost,
             discounting=cfg.discounting, reward_scaling=cfg.reward_scaling, gae_lambda=cfg.gae_lambda,
             clipping_epsilon=cfg.clipping_epsilon, normalize_advantage=True)
-        learning_rate = learning_rate_at(self.config, samples)
+        learning_rate = learning_rate_at(self.config, samples, values)
         metrics["ppo/learning_rate"] = learning_rate
         optimizer = make_optimizer(self.config, learning_rate, self.env.action_size)
         update = in_precision(gradients.gradient_update_fn(loss_fn, optimizer, pmap_axis_name=None,
@@ -452,6 +465,23 @@ def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
         specs = jax.tree_util.tree_map(lambda sharding: sharding.spec, trainer._state_sharding.env_state)
         trainer._batched_env = PerDeviceEnv(trainer._batched_env, mesh, abstract.env_state, specs)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)
-    trainer.train_step = jax.jit(trainer._train_step, donate_argnums=0,
-                                 out_shardings=(trainer._state_sharding, trainer.replicated))
+    trainer._step = jax.jit(trainer._train_step, donate_argnums=0,
+                            out_shardings=(trainer._state_sharding, trainer.replicated))
+    trainer.train_step = BoundSchedule(trainer._step, jax.device_put(schedule_values(config), trainer.replicated))
     return trainer
+
+
+class BoundSchedule:
+    """A train step, jitted or compiled, called as `step(ts)` with the run's schedule values."""
+
+    def __init__(self, step: Any, values: dict):
+        self.step, self.values = step, values
+
+    def __call__(self, ts: TrainState) -> tuple[TrainState, dict]:
+        return self.step(ts, self.values)
+
+    def lower(self, ts: Any) -> jax.stages.Lowered:
+        return self.step.lower(ts, self.values)
+
+    def _cache_size(self) -> int:
+        return self.step._cache_size()
