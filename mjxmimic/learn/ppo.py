@@ -201,7 +201,7 @@ class Trainer:
     mesh: Mesh
     num_devices: int
     samples_per_iteration: int
-    train_step: "BoundSchedule" = dataclasses.field(repr=False, default=None)
+    train_step: BoundSchedule = dataclasses.field(repr=False, default=None)
     _step: Any = dataclasses.field(repr=False, default=None)
     # a TrainState's shapes and shardings: what compiles the step and the evaluator, running nothing
     abstract_state: Any = dataclasses.field(repr=False, default=None)
