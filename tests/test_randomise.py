@@ -241,6 +241,13 @@ def test_the_curriculum_scales_every_push():
     assert events.external_force(("push",), env, 2.05, 0.3, 3, np, qpos, 0.5) == pytest.approx(0.5 * full)
 
 
+def test_runs_with_pushes_measure_the_pose_termination_from_the_root_unless_told():
+    assert make_config("gpu").env.pose_termination_frame == "world"
+    assert make_config("gpu", {"env.events": "push"}).env.pose_termination_frame == "root"
+    told = make_config("gpu", {"env.events": "push", "env.pose_termination_frame": "world"})
+    assert told.env.pose_termination_frame == "world"
+
+
 @pytest.mark.slow
 def test_the_env_pushes_by_the_curriculum_factor_and_keeps_it_through_restarts(character):
     """MJX: the factor in the state's info scales the push the step applies, and an episode that

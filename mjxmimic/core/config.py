@@ -48,7 +48,8 @@ class EnvConfig:
     pose_termination_m: float = 0.0
     # "world": the bodies' centres compared where they are; "root": with the reference moved
     # sideways onto the character's root first (heights kept), so that being pushed off the
-    # reference's path ends no episode and a policy may learn to recover, while a wrong pose does
+    # reference's path ends no episode and a policy may learn to recover, while a wrong pose does.
+    # make_config picks "root" for runs with pushes unless told otherwise (experiments/robustness)
     pose_termination_frame: str = "world"
     # "total" (DeepMimic's): each joint's torque limit bounds its whole PD torque, damping included;
     # "proportional": the law of runs made before this key existed (mjxmimic.physics.pd says why not).
@@ -313,7 +314,15 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
     config = apply_overrides(Config(), PRESETS[preset])
     task = (overrides or {}).get("task.name", config.task.name)
     config = apply_overrides(config, TASK_DEFAULTS.get(task, {}))
-    return apply_overrides(config, overrides or {})
+    config = apply_overrides(config, overrides or {})
+    if _pushes(config.env) and "env.pose_termination_frame" not in (overrides or {}):
+        # in the world frame a push off the reference's path ends the very episodes that teach recovery
+        config = apply_overrides(config, {"env.pose_termination_frame": "root"})
+    return config
+
+
+def _pushes(env: EnvConfig) -> bool:
+    return "push" in env.events.replace(" ", "").split(",")
 
 
 def evaluation_config(config: Config) -> Config:
@@ -356,7 +365,7 @@ def validate(config: Config) -> None:
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
         (env.push_directions in ("any", "table6"), "env.push_directions", "must be 'any' or 'table6'"),
         (env.push_ramp_samples >= 0, "env.push_ramp_samples", "must be >= 0 (0: no curriculum)"),
-        (env.push_ramp_samples == 0 or "push" in env.events.replace(" ", "").split(","), "env.push_ramp_samples",
+        (env.push_ramp_samples == 0 or _pushes(env), "env.push_ramp_samples",
          "ramps pushes: set env.events=push too"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
