@@ -7,12 +7,17 @@
 # The question (issue 17): does a push curriculum (env.push_ramp_samples: pushes scaled from 0 to
 # full force over the first N samples) keep the NR of push training within 0.02 of the runs
 # without pushes, and what forces do the policies then survive? Pushes along the facing or to
-# the sides (env.push_directions=table6) up to 1.5 x Table 6's larger force of the clip (the target), every
-# 2 +- 1 s. Each lane: 100 M samples with the ramp over 50 M, then the same with the pose
-# termination measured from the character's root (env.pose_termination_frame=root), so that a
-# push off the reference's path does not end the training episode.
+# the sides (env.push_directions=table6) up to 1.5 x Table 6's larger force of the clip (the
+# target), every 2 +- 1 s. Each lane: 100 M samples with the ramp over 50 M and the preset's pose
+# termination (world positions; explicit since runs with pushes default to the root frame), then
+# the same with the pose termination measured from the character's root
+# (env.pose_termination_frame=root), so that a push off the reference's path does not end the
+# training episode.
 # Beside the lanes, the host's CPUs push-test (`mjxmimic play POLICY --push --json`, MuJoCo C)
 # every run that is done, while at least GRADE_MIN seconds of the call are left.
+# Call 1 ran this script's first version (commit 253b3e5), whose second run in each lane was 200 M
+# samples with the ramp over 100 M (rcL, bcL, kcL, ccL: 11 to 15 M done, then dropped for the
+# root-frame runs); call 2 ran this version.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
@@ -22,7 +27,7 @@ P="--preset gpu --set env.events=push --set env.push_directions=table6 --set env
 short="--set run.total_samples=100000000 --set env.push_ramp_samples=50000000"
 lane() {  # NAME CLIP FORCE: the two runs of one lane
   local args="--clip $2 $P --set env.push_force_max_n=$3"
-  echo "$1|$args $short;${1}R|$args $short --set env.pose_termination_frame=root"
+  echo "$1|$args $short --set env.pose_termination_frame=world;${1}R|$args $short --set env.pose_termination_frame=root"
 }
 
 grade() {  # RUN: its best policy exported, then NR and the push test on MuJoCo C
