@@ -399,6 +399,11 @@ def test_play_push_test_without_jax(policy_file):
     out = json.loads(result.stdout)
     assert out["push_trials"] == 2 and out["push_forward_n"] >= 0 and out["push_sideways_n"] >= 0
     assert out["push_forward_tried"][0][0] == 0.0  # the search starts unpushed
+    alone = json.loads(_run_play(policy_file, "--push", "--trials", "2", "--json", "--workers", "1").stdout)
+    assert alone["push_forward_tried"] == out["push_forward_tried"]  # workers change nothing but the time
+    assert alone["push_sideways_tried"] == out["push_sideways_tried"]
+    bad = _run_play(policy_file, "--push", "--workers", "0")
+    assert bad.returncode == 2 and "--workers 0: must be at least 1" in bad.stderr, bad.stderr
 
 
 def test_play_text_output_and_run_folder(run, policy_file, capsys):

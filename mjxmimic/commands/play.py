@@ -45,6 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
     parser.add_argument("--trials", type=int, default=32, help="trials per force of the push test (default 32)")
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help="processes that run the push test's trials (default: one per CPU core)")
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a policy trained on a dataset with the skill observation: switch the skill it "
                              "follows, e.g. \"walk:4,run:4,walk:4\" (one run, no reset between skills)")
@@ -238,9 +240,12 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
 
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers {args.workers}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
+    workers = args.workers or os.cpu_count() or 1
     result = {"policy": str(pf.path), "clip": clip.name,
-              **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say)}
+              **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say, workers)}
     if args.json:
         print(json.dumps(result))
     else:
@@ -250,6 +255,12 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.core.errors import UserError
+
+    if args.push and (args.workers or os.cpu_count() or 1) > 1:
+        # the push test's workers each run a small policy: BLAS threads of their own would
+        # oversubscribe the cores (numpy reads these when it is first imported, below)
+        for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+            os.environ.setdefault(name, "1")
 
     if args.viewer and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise UserError("--viewer needs a display (DISPLAY and WAYLAND_DISPLAY are unset); "
