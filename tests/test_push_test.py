@@ -103,8 +103,6 @@ def test_pushed_trials_on_mujoco_c(character):
 def test_trials_in_forked_workers_give_the_same_rates(character):
     """The CPU push test's trials spread over processes: the same survival rates as one after
     another (each trial depends on its start time alone)."""
-    import multiprocessing
-
     from mjxmimic.core.config import make_config
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.motion.clip import load_clip_source
@@ -115,10 +113,7 @@ def test_trials_in_forked_workers_give_the_same_rates(character):
     zero = lambda obs: np.zeros(character.action_size)  # noqa: E731
     starts = np.array([0.1, 0.4, 0.6, 0.9])
     alone = [push_playback.survival_rate(env, zero, force, 0.0, starts) for force in (0.0, 150.0, 4000.0)]
-    push_playback._FORKED = (env, zero)
-    try:
-        with multiprocessing.get_context("fork").Pool(2) as pool:
-            forked = [push_playback.survival_rate(env, zero, force, 0.0, starts, pool) for force in (0.0, 150.0, 4000.0)]
-    finally:
-        push_playback._FORKED = None
+    with push_playback.trial_pool(env, zero, 2) as pool:
+        assert pool is not None
+        forked = [push_playback.survival_rate(env, zero, force, 0.0, starts, pool) for force in (0.0, 150.0, 4000.0)]
     assert forked == alone and alone[-1] == 0.0

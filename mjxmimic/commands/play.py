@@ -240,12 +240,9 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
 
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers {args.workers}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    workers = args.workers or os.cpu_count() or 1
     result = {"policy": str(pf.path), "clip": clip.name,
-              **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say, workers)}
+              **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say, args.workers)}
     if args.json:
         print(json.dumps(result))
     else:
@@ -256,7 +253,10 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
 def run(args: argparse.Namespace) -> int:
     from mjxmimic.core.errors import UserError
 
-    if args.push and (args.workers or os.cpu_count() or 1) > 1:
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers {args.workers}: must be at least 1")
+    args.workers = args.workers or os.cpu_count() or 1
+    if args.push and args.workers > 1:
         # the push test's workers each run a small policy: BLAS threads of their own would
         # oversubscribe the cores (numpy reads these when it is first imported, below)
         for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):

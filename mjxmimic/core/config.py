@@ -321,8 +321,13 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
     return config
 
 
+def names_in(value: str) -> tuple[str, ...]:
+    """The names that a comma-separated key such as env.events lists."""
+    return tuple(n.strip() for n in value.split(",") if n.strip())
+
+
 def _pushes(env: EnvConfig) -> bool:
-    return "push" in env.events.replace(" ", "").split(",")
+    return "push" in names_in(env.events)
 
 
 def evaluation_config(config: Config) -> Config:

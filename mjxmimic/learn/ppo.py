@@ -193,7 +193,7 @@ def export_params(ts: TrainState) -> dict:
 @dataclasses.dataclass
 class Trainer:
     """Built by `make_trainer`. `train_step(ts)` is the jitted iteration (with the run's schedule
-    values bound: `_step(ts, values)` is the program itself); `init(seed)` a fresh state."""
+    values bound: `train_step.step(ts, values)` is the program itself); `init(seed)` a fresh state."""
 
     env: Any
     config: Config
@@ -202,7 +202,6 @@ class Trainer:
     num_devices: int
     samples_per_iteration: int
     train_step: BoundSchedule = dataclasses.field(repr=False, default=None)
-    _step: Any = dataclasses.field(repr=False, default=None)
     # a TrainState's shapes and shardings: what compiles the step and the evaluator, running nothing
     abstract_state: Any = dataclasses.field(repr=False, default=None)
     _batched_env: BatchedEnv | PerDeviceEnv = dataclasses.field(repr=False, default=None)
@@ -465,9 +464,8 @@ def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
         specs = jax.tree_util.tree_map(lambda sharding: sharding.spec, trainer._state_sharding.env_state)
         trainer._batched_env = PerDeviceEnv(trainer._batched_env, mesh, abstract.env_state, specs)
     trainer._reset = jax.jit(trainer._batched_env.reset, out_shardings=trainer._state_sharding.env_state)
-    trainer._step = jax.jit(trainer._train_step, donate_argnums=0,
-                            out_shardings=(trainer._state_sharding, trainer.replicated))
-    trainer.train_step = BoundSchedule(trainer._step, jax.device_put(schedule_values(config), trainer.replicated))
+    step = jax.jit(trainer._train_step, donate_argnums=0, out_shardings=(trainer._state_sharding, trainer.replicated))
+    trainer.train_step = BoundSchedule(step, jax.device_put(schedule_values(config), trainer.replicated))
     return trainer
 
 

@@ -5,8 +5,9 @@ the result is the same for any number of workers)."""
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -38,10 +39,26 @@ def _forked_trial(args: tuple[float, float, float]) -> bool:
     return survives(env, policy, *args)
 
 
+@contextlib.contextmanager
+def trial_pool(env: Any, policy: Callable[[np.ndarray], np.ndarray], workers: int) -> Iterator[Any]:
+    """Processes forked with `env` and `policy` for `survival_rate`'s trials; None (one trial
+    after another here) for one worker or where processes cannot be forked."""
+    global _FORKED
+    if workers <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        yield None
+        return
+    _FORKED = (env, policy)
+    try:
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            yield pool
+    finally:
+        _FORKED = None
+
+
 def survival_rate(env: Any, policy: Callable[[np.ndarray], np.ndarray], force_n: float, turn: float,
                   starts: np.ndarray, pool: Any = None) -> float:
     """The share of trials, one per start time, that a push of `force_n` turned by `turn` from
-    the facing does not knock down (in `pool`'s workers, forked after `_FORKED` was set)."""
+    the facing does not knock down (in `pool`'s workers, from `trial_pool`, when given)."""
     if pool is None:
         survived = [survives(env, policy, force_n, turn, t0) for t0 in starts]
     else:
@@ -52,17 +69,9 @@ def survival_rate(env: Any, policy: Callable[[np.ndarray], np.ndarray], force_n:
 def push_test(env: Any, policy: Callable[[np.ndarray], np.ndarray], trials: int = protocol.TRIALS,
               seed: int = 0, progress: Callable[[str], None] | None = None, workers: int = 1) -> dict[str, Any]:
     """push_forward_n and push_sideways_n on the CPU env, with every (force, survival rate) tried."""
-    global _FORKED
     lib = env.spec.lib
     start_range = protocol.start_time_range(float(lib.duration[0]), bool(lib.loop[0]))
     starts = np.random.default_rng(seed).uniform(0.0, start_range, size=trials)
-    workers = min(workers, trials)
-    if workers <= 1 or "fork" not in multiprocessing.get_all_start_methods():
-        return protocol.search(lambda force, turn: survival_rate(env, policy, force, turn, starts), trials, progress)
-    _FORKED = (env, policy)
-    try:
-        with multiprocessing.get_context("fork").Pool(workers) as pool:
-            return protocol.search(lambda force, turn: survival_rate(env, policy, force, turn, starts, pool),
-                                   trials, progress)
-    finally:
-        _FORKED = None
+    with trial_pool(env, policy, min(workers, trials)) as pool:
+        return protocol.search(lambda force, turn: survival_rate(env, policy, force, turn, starts, pool),
+                               trials, progress)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from mjxmimic.core.config import EnvConfig
+from mjxmimic.core.config import EnvConfig, names_in
 from mjxmimic.core.errors import UserError
 from mjxmimic.task import push_protocol
 from mjxmimic.task.goals import PLASTIC
@@ -65,7 +65,7 @@ TERMS: dict[str, Callable[[EnvConfig, Any, Any, int, Any, Any, Any], Any]] = {"p
 
 
 def parse(names: str) -> tuple[str, ...]:
-    out = tuple(n.strip() for n in names.split(",") if n.strip())
+    out = names_in(names)
     unknown = [n for n in out if n not in TERMS]
     if unknown:
         raise UserError(f"config key 'env.events': {unknown[0]!r} is not an event (events: {', '.join(TERMS)})")
