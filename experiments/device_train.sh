@@ -15,14 +15,18 @@
 # A lane that starts with "@GPUS[/MIN] " (e.g. "@2,3/200 ") trains on those GPUs (data-parallel
 # over them) and starts a run only while at least MIN seconds of the call are left (so that a
 # time-to-skill run is not cut in two).
+# A NAME that starts with "grade_" grades the run of the rest of its name once it is done: its
+# best checkpoint's push test on MJX (`mjxmimic eval RUN --push`, on the lane's GPU), then its
+# exported policy's NR and push test on MuJoCo C (`mjxmimic play`, on GRADE_WORKERS CPU cores,
+# beside the lane's next run); a run not done, or graded already, is skipped.
 # A NAME that starts with "warm_" only builds and compiles (run.max_seconds=1), so that the
 # runs after it load their programs from the compilation cache. Runs that are done (eval.json)
 # and warm-ups that ran are skipped.
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
-# PACK=none: bring back only the logs and metrics (in logs.tgz); the runs stay on the warm machine
-# for the next call.
+# PACK=none: bring back only the logs, metrics and the runs' small JSON files (config, evaluation,
+# grades; in logs.tgz); the runs stay on the warm machine for the next call.
 set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
@@ -60,6 +64,21 @@ bench() {  # NAME ARGS...
   timeout $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli bench "$@" --out "/tmp/bench/$name.json" > "/tmp/bench/$name.log" 2>&1
 }
 
+grade() {  # grade_NAME
+  local run=runs/${1#grade_} left=$(( deadline - $(date +%s) ))
+  [ -f "$run/eval.json" ] && [ ! -f "$run/push_cpu.json" ] || return 0
+  if [ "$left" -lt "${GRADE_MIN:-150}" ]; then echo "$run: not graded, $left s left in this call"; return; fi
+  timeout "$left" python3 -m mjxmimic.cli eval "$run" --push --checkpoint best > "$run/push_mjx.log" 2>&1
+  XLA_PYTHON_CLIENT_PREALLOCATE=false timeout "$left" python3 -m mjxmimic.cli export "$run" > "$run/export.log" 2>&1 \
+    || return
+  local test
+  for test in play push; do
+    local flags=(--json); [ $test = push ] && flags+=(--push --workers "${GRADE_WORKERS:-4}")
+    (timeout $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli play "$run/policy.npz" "${flags[@]}" \
+      > "$run/${test}_cpu.json.part" 2> "$run/${test}_cpu.log" && mv "$run/${test}_cpu.json.part" "$run/${test}_cpu.json") &
+  done
+}
+
 names=()
 pids=()
 i=0
@@ -70,15 +89,16 @@ for lane in "$@"; do
     lane_gpus=${opts%%/*}; [[ $opts == */* ]] && min_left=${opts#*/}
   fi
   IFS=';' read -ra specs <<< "$lane"
-  for spec in "${specs[@]}"; do [[ $spec == bench_* ]] || names+=("${spec%%|*}"); done
+  for spec in "${specs[@]}"; do [[ $spec == bench_* || $spec == grade_* ]] || names+=("${spec%%|*}"); done
   (
     if [ -n "$lane_gpus" ]; then export CUDA_VISIBLE_DEVICES=$lane_gpus
     elif [ "$own_gpu" = 1 ]; then export CUDA_VISIBLE_DEVICES=${gpus[$i]}; fi
     for spec in "${specs[@]}"; do
-      job=train; [[ $spec == bench_* ]] && job=bench
+      job=train; [[ $spec == bench_* ]] && job=bench; [[ $spec == grade_* ]] && job=grade
       # shellcheck disable=SC2086
       $job "${spec%%|*}" ${spec#*|}
     done
+    wait  # the lane's grading on the CPUs
   ) &
   pids+=($!)
   i=$((i + 1))
@@ -110,7 +130,8 @@ if [ -d /tmp/bench ]; then
   tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
 if [ "${PACK:-}" = none ]; then  # one archive: $OUT brings back at most 8 files
-  (cd "$OUT" && tar czf logs.tgz ./*.log ./*.metrics.jsonl && rm -f ./*.log ./*.metrics.jsonl)
+  tar czf "$OUT/logs.tgz" -C "$OUT" --files-from <(cd "$OUT" && ls ./*.log ./*.metrics.jsonl 2>/dev/null) \
+    -C "$PWD" --files-from <(ls runs/*/*.json runs/*/*.log 2>/dev/null) && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl
   exit 0
 fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
