@@ -49,6 +49,12 @@ def test_config_and_eval_round_trip(tmp_path):
     folder.eval_path(run_dir).write_text("{not json")
     with pytest.raises(UserError, match="eval.json: not valid JSON"):
         folder.read_eval(run_dir)
+    folder.eval_path(run_dir).write_text("[1]")
+    with pytest.raises(UserError, match="eval.json: expected a JSON object, got list"):
+        folder.read_eval(run_dir)
+    folder.config_path(run_dir).write_text("[1, 2]")
+    with pytest.raises(UserError, match="config.json: expected a JSON object of config sections, got list"):
+        folder.load_config(run_dir)
 
 
 def test_has_checkpoint_needs_a_complete_one(tmp_path):

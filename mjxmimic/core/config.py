@@ -470,4 +470,6 @@ def load(path: Path) -> Config:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as err:
         raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: expected a JSON object of config sections, got {type(data).__name__}")
     return from_dict(data)

@@ -152,14 +152,18 @@ def write_config(run_dir: Path, config: config_lib.Config) -> None:
     config_lib.save(config, config_path(run_dir))
 
 
-def _read_json(path: Path) -> Any:
-    """A JSON file of the run, or None when there is none; a one-line error when it is not JSON."""
+def _read_json(path: Path) -> dict[str, Any] | None:
+    """A JSON object file of the run, or None when there is none; a one-line error when it is not
+    a JSON object."""
     if not path.is_file():
         return None
     try:
-        return json.loads(path.read_text())
+        data = json.loads(path.read_text())
     except json.JSONDecodeError as err:
         raise UserError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: expected a JSON object, got {type(data).__name__}")
+    return data
 
 
 def read_eval(run_dir: Path) -> dict[str, Any] | None:
