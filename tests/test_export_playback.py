@@ -363,8 +363,11 @@ def test_export_errors_are_one_line(tmp_path, capsys):
     assert cli_main(["play", str(tmp_path / "missing.npz")]) == 2
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
     assert cli_main(["play", str(tmp_path / "junk.npz")]) == 2
+    np.savez_compressed(tmp_path / "whole.npz", weights=np.arange(4096.0))
+    (tmp_path / "cut.npz").write_bytes((tmp_path / "whole.npz").read_bytes()[:200])  # a zip cut short
+    assert cli_main(["play", str(tmp_path / "cut.npz")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3 and all(line.startswith("mjxmimic ") and "error:" in line for line in err), err
+    assert len(err) == 4 and all(line.startswith("mjxmimic ") and "error:" in line for line in err), err
 
 
 # ------------------------------------------------------------------------------------ playback

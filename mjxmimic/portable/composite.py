@@ -168,7 +168,7 @@ def is_composite(path: Path) -> bool:
     try:
         with np.load(path, allow_pickle=False) as z:
             return "manifest" in z.files and json.loads(str(z["manifest"])).get("format") == FORMAT
-    except (OSError, ValueError, EOFError):
+    except policy_file.UNREADABLE_NPZ:
         return False
 
 

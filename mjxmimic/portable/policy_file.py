@@ -60,6 +60,8 @@ import hashlib
 import json
 import shutil
 import tempfile
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -402,12 +404,16 @@ def params_from_arrays(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     return out
 
 
+# what np.load raises for a file that is not a whole npz (not a zip, cut short, corrupted)
+UNREADABLE_NPZ = (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error)
+
+
 def load_arrays(path: Path, what: str = "an npz policy file") -> dict[str, np.ndarray]:
     """Every array of an npz file (no pickles); a one-line UserError when it cannot be read."""
     try:
         with np.load(path, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as err:
+    except UNREADABLE_NPZ as err:
         raise UserError(f"{path}: cannot read as {what} ({err})") from None
 
 
