@@ -133,3 +133,34 @@ def test_a_full_disk_stops_with_one_line_and_keeps_the_last_checkpoint(tmp_path,
     assert checkpoint.kept_checkpoints(run_dir) == [2560]
     out = train(_config(), run_dir, resume=True, env=StandInEnv(), progress=False)  # space freed: go on
     assert out.reason == "done" and _steps(run_dir) == [512 * i for i in range(1, 11)]
+
+
+def test_a_disk_that_fills_at_the_final_evaluation_stops_with_one_line(tmp_path, monkeypatch):
+    """The best checkpoint of the evaluation after the last iteration is the last thing written;
+    orbax wraps the full disk into a long ValueError."""
+    run_dir = tmp_path / "run"
+    save = checkpoint.save
+
+    def best_fills_the_disk(run_dir_, ts, **kwargs):
+        if kwargs.get("best") and int(ts.env_steps) == 5120:
+            raise ValueError("RESOURCE_EXHAUSTED: Error writing ...\nFailed writing: No space left on device")
+        return save(run_dir_, ts, **kwargs)
+
+    monkeypatch.setattr(checkpoint, "save", best_fills_the_disk)
+    with pytest.raises(UserError, match=r"the disk is full \(RESOURCE_EXHAUSTED.*\(at 5,120 samples\) is kept") as err:
+        train(_config(eval_every=4096), run_dir, env=StandInEnv(), progress=False)
+    assert "\n" not in str(err.value)
+    assert checkpoint.latest_checkpoint(run_dir) == 5120
+
+
+def test_a_checkpoint_the_disk_cannot_hold_is_refused_before_any_of_it_is_written(tmp_path, monkeypatch):
+    import collections
+    import shutil
+
+    run_dir = tmp_path / "run"
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(1 << 30, (1 << 30) - 4096, 4096))
+    with pytest.raises(UserError, match=r"the disk is full \(.*0\.0 MiB free, a checkpoint needs about .*\); "
+                                        r"training stopped, no checkpoint was written"):
+        train(_config(), run_dir, env=StandInEnv(), progress=False)
+    assert not folder.checkpoint_dir(run_dir).exists() and not folder.best_dir(run_dir).exists()

@@ -18,6 +18,10 @@ kept; `save(..., best=True)`), which export, play and render use by default.
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import logging
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -77,12 +81,36 @@ def save(run_dir: Path, ts, *, iterations: int, elapsed_seconds: float, extra: d
             "elapsed_seconds": float(elapsed_seconds), **(extra or {})}
     args = {name: ocp.args.PyTreeSave(items[name], ocdbt_target_data_file_size=TARGET_FILE_BYTES)
             for name in _ARRAY_ITEMS}
-    with _manager(run_dir, best=best) as mngr:
+    _require_space(run_dir, sum(np.asarray(x).nbytes for x in jax.tree_util.tree_leaves(items)))
+    with _manager(run_dir, best=best) as mngr, _library_errors_raised_not_logged():
         if env_steps in mngr.all_steps():  # e.g. Ctrl-C right after a periodic save
             mngr.delete(env_steps)
         mngr.save(env_steps, args=ocp.args.Composite(meta=ocp.args.JsonSave(meta), **args), force=True)
         mngr.wait_until_finished()
     return env_steps
+
+
+def _require_space(run_dir: Path, nbytes: int) -> None:
+    """Refuse a checkpoint that the disk cannot hold before writing any of it: a write that fails
+    halfway leaves orbax's writer threads printing tracebacks after the run has stopped."""
+    free = shutil.disk_usage(run_dir if run_dir.exists() else run_dir.parent).free
+    needed = int(nbytes * 1.2) + (1 << 20)  # the arrays, orbax's metadata and some slack
+    if free < needed:
+        raise OSError(errno.ENOSPC, f"No space left on device: {free / 2**20:.1f} MiB free, a checkpoint "
+                                    f"needs about {needed / 2**20:.1f} MiB")
+
+
+@contextlib.contextmanager
+def _library_errors_raised_not_logged():
+    """Orbax's writer threads log a failed write (a full disk) with its traceback through absl,
+    then raise it in the caller, which reports it in one line: only the raise gets through."""
+    logger = logging.getLogger("absl")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def restore(run_dir: Path, template, step: int | None = None):

@@ -354,8 +354,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         if not _disk_full(err):
             raise
         log.close()
-        raise UserError(f"{run_dir}: the disk is full ({err}); training stopped, the last complete checkpoint "
-                        f"(at {last_ckpt_steps:,} samples) is kept: free space, then --resume") from None
+        raise _disk_full_error(run_dir, err) from None
 
     # Everything below also runs after Ctrl-C: the state in `ts` is whole (the step either
     # finished or never started; a donated-but-unassigned state cannot happen with the flag).
@@ -375,6 +374,10 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         out = summary(reason)
         log.write(env_steps, elapsed(), {"iteration": iterations, **{f"run/{k}": v for k, v in out.items()
                                                                       if isinstance(v, (int, float))}})
+    except Exception as err:  # the final checkpoint or evaluation
+        if not _disk_full(err):
+            raise
+        raise _disk_full_error(run_dir, err) from None
     finally:
         log.close()
     if reason == "non_finite":
@@ -413,6 +416,16 @@ def _in_background(fn: Callable, *args: Any) -> Future:
 def _disk_full(err: BaseException) -> bool:
     """An error that says the disk is full (an OSError, or one a library wraps around it)."""
     return (isinstance(err, OSError) and err.errno == errno.ENOSPC) or "No space left on device" in str(err)
+
+
+def _disk_full_error(run_dir: Path, err: BaseException) -> UserError:
+    first_line = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+    from mjxmimic.runs import checkpoint
+
+    kept = checkpoint.latest_checkpoint(run_dir)
+    kept = "no checkpoint was written" if kept is None else f"the last complete checkpoint (at {kept:,} samples) is kept"
+    return UserError(f"{run_dir}: the disk is full ({first_line}); training stopped, {kept}: free space, "
+                     "then --resume")
 
 
 class _Progress:
