@@ -92,6 +92,30 @@ def test_table6_pushes_go_forward_or_sideways_of_the_facing():
         make_config("cpu", {"env.push_directions": "backward"})
 
 
+def test_table6_sideways_pushes_can_be_weaker_than_forward_ones():
+    """Table 6's sideways forces are smaller than its forward ones (run 300 against 720 N)."""
+    env = make_config("cpu", {"env.push_force_n": 720.0, "env.push_directions": "table6",
+                              "env.push_sideways_scale": 300.0 / 720.0}).env
+    qpos = np.zeros(7)
+    qpos[3] = 1.0  # facing the world's x axis
+    seen = set()
+    for seed in np.linspace(0.0, 1.0, 25, endpoint=False):
+        for k in range(1, 9):
+            f = events.push(env, 2.0 * k, seed, 3, np, qpos)[ROOT_BODY]
+            sideways = abs(f[1]) > abs(f[0])
+            assert np.linalg.norm(f[:2]) == pytest.approx(300.0 if sideways else 720.0)
+            seen.add(sideways)
+    assert seen == {True, False}
+    mjx = jax.jit(lambda t, s, q: events.push(env, t, s, 3, jnp, q))
+    for seed in (0.3, 0.8):
+        np.testing.assert_allclose(np.asarray(mjx(jnp.float32(2.0), jnp.float32(seed), jnp.asarray(qpos, jnp.float32))),
+                                   events.push(env, 2.0, seed, 3, np, qpos), rtol=1e-4, atol=1e-3)
+    with pytest.raises(UserError, match="env.push_sideways_scale': scales the sideways pushes"):
+        make_config("cpu", {"env.push_sideways_scale": 0.5})
+    with pytest.raises(UserError, match="env.push_sideways_scale': must be positive"):
+        make_config("cpu", {"env.push_directions": "table6", "env.push_sideways_scale": 0.0})
+
+
 def test_the_step_pushes_along_the_facing(character):
     from mjxmimic.core import quat
     from mjxmimic.envs.cpu_env import CpuEnv

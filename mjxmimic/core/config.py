@@ -71,6 +71,9 @@ class EnvConfig:
     # "any": each push in a direction uniform over the compass; "table6": forward, or to the left or
     # right, of the character's facing (half of the pushes forward), the directions Table 6 tests
     push_directions: str = "any"
+    # with push_directions=table6: the sideways pushes' force times this, e.g. Table 6's sideways
+    # force over its forward one, so that sideways pushes are not trained far past their target
+    push_sideways_scale: float = 1.0
     # > 0: a curriculum: every push's force is scaled by (training samples so far) / this, up to 1,
     # so that a policy learns the clip before the largest pushes come; 0: full force from the start
     push_ramp_samples: int = 0
@@ -369,6 +372,9 @@ def validate(config: Config) -> None:
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
         (env.push_interval_jitter_s >= 0, "env.push_interval_jitter_s", "must be >= 0"),
         (env.push_directions in ("any", "table6"), "env.push_directions", "must be 'any' or 'table6'"),
+        (env.push_sideways_scale > 0, "env.push_sideways_scale", "must be positive"),
+        (env.push_sideways_scale == 1.0 or env.push_directions == "table6", "env.push_sideways_scale",
+         "scales the sideways pushes of env.push_directions=table6: set that too"),
         (env.push_ramp_samples >= 0, "env.push_ramp_samples", "must be >= 0 (0: no curriculum)"),
         (env.push_ramp_samples == 0 or _pushes(env), "env.push_ramp_samples",
          "ramps pushes: set env.events=push too"),

@@ -6,7 +6,8 @@ push: every `env.push_interval_s` of an episode, a horizontal force of `env.push
 root for `env.push_duration_s` (DeepMimic's Table 6 pushes are 0.2 s on the pelvis). Its direction
 comes from the episode's event seed and the push's index by a golden-ratio sequence, so the step
 needs no random numbers and MJX and the CPU env push alike: any compass direction, or with
-`env.push_directions=table6` forward or sideways of the character's facing. With `env.push_force_max_n` each
+`env.push_directions=table6` forward or sideways of the character's facing (the sideways ones
+scaled by `env.push_sideways_scale`). With `env.push_force_max_n` each
 push's force lies in [push_force_n, push_force_max_n], and with `env.push_interval_jitter_s` it
 starts up to that long after its interval's start, each by a sequence of its own of the same
 kind (`sequence`). With `env.push_ramp_samples` the trainer scales every push by its
@@ -57,6 +58,7 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     u = sequence(DIRECTION, event_seed, k)
     if env.push_directions == "table6":  # forward half the time, else to the left or to the right
         turn = xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
+        force = force * xp.where(u < 0.5, 1.0, env.push_sideways_scale)
         return push_protocol.wrench(qpos, force, turn, active, nbody, xp)
     return push_protocol.root_force(2.0 * xp.pi * u, force, active, nbody, xp)
 
