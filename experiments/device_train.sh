@@ -142,7 +142,9 @@ if [ "${PACK:-checkpoints}" != checkpoints ]; then
       || echo "export $n failed") &
   done
   wait
-  for n in "${names[@]}"; do mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"; done
+  for n in "${names[@]}"; do  # (a run done in an earlier call has no log of this one)
+    [ -f "$OUT/$n.log" ] && mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
+  done
   keep_best=(--exclude=best); [ "$PACK" = best ] && keep_best=()
   tar czf - --exclude=checkpoints --exclude=tb "${keep_best[@]}" runs | split -b 15M - "$OUT/policies.tgz."
   exit 0
@@ -151,7 +153,7 @@ for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resum
   ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
 done
 for n in "${names[@]}"; do
-  mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
+  [ -f "$OUT/$n.log" ] && mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
 done
 # one archive per run, in 15 MiB parts; $OUT brings back at most 8 files and 64 MiB, so a run
 # that would not fit stays on the machine with the command that fetches it in a call of its own
