@@ -1,7 +1,8 @@
-"""`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's latest checkpoint, or of
+"""`mjxmimic eval RUN`: normalised return (NR, EVALUATION.md) of a run's best checkpoint, or of
 an exported policy file (`mjxmimic eval POLICY.npz`, on MJX; mjxmimic.runs.evaluate_run).
 
-Evaluates one of the run's checkpoints (the latest unless --checkpoint) by the NR protocol
+Evaluates one of the run's checkpoints (the best evaluation's, as export, play and render use,
+unless --checkpoint) by the NR protocol
 (mjxmimic.runs.evaluate_run), which writes RUN/eval_<checkpoint>.json (the training's eval.json
 stays), and prints a short table (or the JSON with --json). With --push it runs
 DeepMimic's Table 6 push test instead (mjxmimic.runs.push_eval) and writes RUN/push.json.
@@ -22,8 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
-    parser.add_argument("--checkpoint", default="latest", metavar="best|latest|N",
-                        help="which checkpoint: the latest (default), the best evaluation's, or N samples")
+    parser.add_argument("--checkpoint", metavar="best|latest|N",
+                        help="which checkpoint: the best evaluation's (default; the latest for a run "
+                             "that kept none), the latest, or N samples")
     parser.add_argument("--push", action="store_true",
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
@@ -70,7 +72,7 @@ def _run_push(args: argparse.Namespace) -> int:
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    result = push_test_run(args.run_dir, args.seed, args.trials, progress=say, which=args.checkpoint)
+    result = push_test_run(args.run_dir, args.seed, args.trials, progress=say, which=args.checkpoint or "best")
     folder.write_json_atomic(args.run_dir / "push.json", result)
     if args.json:
         print(json.dumps(result, indent=2))
@@ -117,14 +119,14 @@ def run(args: argparse.Namespace) -> int:
 
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
     if args.run_dir.is_file() or args.run_dir.suffix in (".npz", ".onnx"):
-        if args.checkpoint != "latest":
+        if args.checkpoint is not None:
             from mjxmimic.core.errors import UserError
 
             raise UserError(f"--checkpoint is for run folders; {args.run_dir} holds one policy")
         result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say)
         title = f"{args.run_dir} ({result['clip']}, MJX)"
     else:
-        result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint, progress=say)
+        result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint or "best", progress=say)
         title = f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,})"
     if args.json:
         print(json.dumps(result, indent=2))
