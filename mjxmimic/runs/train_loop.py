@@ -419,9 +419,10 @@ def _disk_full(err: BaseException) -> bool:
 
 
 def _disk_full_error(run_dir: Path, err: BaseException) -> UserError:
-    first_line = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+    """One line: the error's first line (orbax's run to many) and what is left to resume from."""
     from mjxmimic.runs import checkpoint
 
+    first_line = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
     kept = checkpoint.latest_checkpoint(run_dir)
     kept = "no checkpoint was written" if kept is None else f"the last complete checkpoint (at {kept:,} samples) is kept"
     return UserError(f"{run_dir}: the disk is full ({first_line}); training stopped, {kept}: free space, "
