@@ -1,0 +1,56 @@
+"""The push table of graded run records (issue 17): per run folder, its clip, samples, best
+checkpoint, NR on MJX (released form, paper form as written in brackets), CPU / MJX NR, the push
+test on MJX (push.json) and on MuJoCo C (push_cpu.json) beside Table 6 and 1.5 x Table 6, and
+the NR cost against the preset's 100 M policy of the clip without pushes (../skills_100m/CLIP).
+The files are those that `experiments/device_train.sh`'s grade_NAME writes.
+
+    python experiments/robustness/table.py experiments/robustness/root_frame/*
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from mjxmimic.commands.evaluate import PAPER_PUSH_N
+
+BASELINES = Path(__file__).resolve().parent.parent / "skills_100m"
+
+
+def _json(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _forces(result: dict | None) -> str:
+    return f"{result['push_forward_n']:.0f} / {result['push_sideways_n']:.0f} N" if result else "-"
+
+
+def row(run: Path) -> str:
+    config = json.loads((run / "config.json").read_text())
+    clip = config["clip"]["name"]
+    best = json.loads((run / "best.json").read_text())
+    nr = best["eval"]["nr"]
+    cpu = _json(run / "play_cpu.json")
+    baseline = _json(BASELINES / clip / "best.json")
+    cost = f"{baseline['eval']['nr'] - nr:.3f}" if baseline else "-"
+    table6 = PAPER_PUSH_N.get(clip)
+    paper = f"{table6[0]} / {table6[1]} N" if table6 else "-"
+    target = f"{1.5 * table6[0]:.0f} / {1.5 * table6[1]:.0f} N" if table6 else "-"
+    pushes = "push" in config["env"]["events"].split(",")
+    return (f"| `{run.name}` | {clip} | {'yes' if pushes else 'no'} | {config['env']['pose_termination_frame']} "
+            f"| {config['run']['total_samples'] / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
+            f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu['nr'] / nr if cpu else float('nan'):.3f} "
+            f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} |")
+
+
+def main(paths: list[str]) -> None:
+    print("| run | clip | pushes | pose termination | samples | best at | NR on MJX | NR cost | CPU / MJX "
+          "| push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 |")
+    print("|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+    for path in paths:
+        print(row(Path(path)))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
