@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 
 from mjxmimic.commands.evaluate import PAPER_PUSH_N
+from mjxmimic.core.config import names_in
+from mjxmimic.runs import folder
 
 BASELINES = Path(__file__).resolve().parent.parent / "skills_100m"
 
@@ -27,19 +29,19 @@ def _forces(result: dict | None) -> str:
 
 
 def row(run: Path) -> str:
-    config = json.loads((run / "config.json").read_text())
-    clip = config["clip"]["name"]
-    best = json.loads((run / "best.json").read_text())
+    config = folder.load_config(run)
+    clip = config.clip.name
+    best = folder.read_best(run)
     nr = best["eval"]["nr"]
     cpu = _json(run / "play_cpu.json")
-    baseline = _json(BASELINES / clip / "best.json")
+    baseline = folder.read_best(BASELINES / clip) if (BASELINES / clip).is_dir() else None
     cost = f"{baseline['eval']['nr'] - nr:.3f}" if baseline else "-"
     table6 = PAPER_PUSH_N.get(clip)
     paper = f"{table6[0]} / {table6[1]} N" if table6 else "-"
     target = f"{1.5 * table6[0]:.0f} / {1.5 * table6[1]:.0f} N" if table6 else "-"
-    pushes = "push" in config["env"]["events"].split(",")
-    return (f"| `{run.name}` | {clip} | {'yes' if pushes else 'no'} | {config['env']['pose_termination_frame']} "
-            f"| {config['run']['total_samples'] / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
+    pushes = "push" in names_in(config.env.events)
+    return (f"| `{run.name}` | {clip} | {'yes' if pushes else 'no'} | {config.env.pose_termination_frame} "
+            f"| {config.run.total_samples / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
             f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu['nr'] / nr if cpu else float('nan'):.3f} "
             f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} |")
 

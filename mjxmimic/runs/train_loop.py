@@ -132,8 +132,13 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
             raise UserError(f"{run_dir}: already holds a run (continue it with --resume)")
         if resume and (done := _finished(run_dir, config)) is not None:
             return done
-        return _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
-                      progress=progress, on_iteration=on_iteration, deadline=deadline)
+        try:
+            return _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
+                          progress=progress, on_iteration=on_iteration, deadline=deadline)
+        except Exception as err:  # wherever it strikes: a checkpoint, an evaluation's best, a log row
+            if not _disk_full(err):
+                raise
+            raise _disk_full_error(run_dir, err) from None
 
 
 def _finished(run_dir: Path, config: config_lib.Config) -> Outcome | None:
@@ -350,11 +355,9 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                     save_checkpoint()
     except KeyboardInterrupt:
         reason = "interrupted"
-    except Exception as err:
-        if not _disk_full(err):
-            raise
+    except Exception:
         log.close()
-        raise _disk_full_error(run_dir, err) from None
+        raise
 
     # Everything below also runs after Ctrl-C: the state in `ts` is whole (the step either
     # finished or never started; a donated-but-unassigned state cannot happen with the flag).
@@ -374,10 +377,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         out = summary(reason)
         log.write(env_steps, elapsed(), {"iteration": iterations, **{f"run/{k}": v for k, v in out.items()
                                                                       if isinstance(v, (int, float))}})
-    except Exception as err:  # the final checkpoint or evaluation
-        if not _disk_full(err):
-            raise
-        raise _disk_full_error(run_dir, err) from None
     finally:
         log.close()
     if reason == "non_finite":
