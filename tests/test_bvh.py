@@ -6,6 +6,7 @@ joint names (legs resting splayed, arms down, y up, facing +z) walking forward.
 
 import json
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -16,7 +17,7 @@ from mjxmimic.core import quat
 from mjxmimic.core.character import load_character
 from mjxmimic.core.errors import UserError
 from mjxmimic.motion.bvh import BvhError, load_bvh, parse_bvh
-from mjxmimic.motion.bvh_import import find_mapping, import_bvh, load_mapping
+from mjxmimic.motion.bvh_import import SKELETONS, find_mapping, import_bvh, load_mapping
 from mjxmimic.motion.clip import load_clip
 
 # name, parent, offset (y up, facing +z, +x to the skeleton's left); every joint has ZXY rotations
@@ -38,9 +39,16 @@ NAMES = [name for name, _, _ in SKELETON]
 FPS = 30
 
 
-def bvh_text(frames: np.ndarray, frame_time: float = 1 / FPS) -> str:
-    """The BVH file of SKELETON with the given (F, 6 + 3 x 18) channel values."""
+def bvh_text(frames: np.ndarray, frame_time: float = 1 / FPS, z_up: bool = False) -> str:
+    """The BVH file of SKELETON with the given (F, 6 + 3 x 18) channel values; with z_up, the same
+    motion in coordinates where z is up and the skeleton faces -y (x, y, z -> x, -z, y)."""
     lines = ["HIERARCHY"]
+    rotations = "Zrotation Xrotation Yrotation"
+    if z_up:  # about y becomes about z; about z becomes about -y
+        frames = frames.copy()
+        frames[:, 1], frames[:, 2] = -frames[:, 2], frames[:, 1].copy()
+        frames[:, 3::3] *= -1
+        rotations = "Yrotation Xrotation Zrotation"
 
     def block(name: str, depth: int) -> None:
         pad = "  " * depth
@@ -48,14 +56,16 @@ def bvh_text(frames: np.ndarray, frame_time: float = 1 / FPS) -> str:
         offset = next(o for n, _, o in SKELETON if n == name)
         lines.append(f"{pad}{'ROOT' if parent is None else 'JOINT'} {name}")
         lines.append(f"{pad}{{")
-        lines.append(f"{pad}  OFFSET {offset[0]} {offset[1]} {offset[2]}")
+        x, y, z = offset
+        lines.append(f"{pad}  OFFSET {x} {-z if z_up else y} {y if z_up else z}")
         channels = "6 Xposition Yposition Zposition" if parent is None else "3"
-        lines.append(f"{pad}  CHANNELS {channels} Zrotation Xrotation Yrotation")
+        lines.append(f"{pad}  CHANNELS {channels} {rotations}")
         for child, p, _ in SKELETON:
             if p == name:
                 block(child, depth + 1)
         if name in END_SITES:
             x, y, z = END_SITES[name]
+            y, z = (-z, y) if z_up else (y, z)
             lines.extend([f"{pad}  End Site", f"{pad}  {{", f"{pad}    OFFSET {x} {y} {z}", f"{pad}  }}"])
         lines.append(f"{pad}}}")
 
@@ -254,9 +264,55 @@ def test_mapping_errors(tmp_path, walk_file):
     with pytest.raises(UserError, match="no mapping for character 'dog3d'"):
         find_mapping(bvh, "dog3d")
     renamed = tmp_path / "renamed.bvh"
-    renamed.write_text(walk_file.read_text().replace("LeftUpLeg", "LThigh"))
-    with pytest.raises(UserError, match=r"no skeleton mapping fits its joints \(tried cmu_max \(no"):
+    renamed.write_text(walk_file.read_text().replace("LeftFoot", "Joint7"))
+    with pytest.raises(UserError, match=r"no skeleton mapping fits its joints \(tried cmu_max \(no .*cmu_mb \(no "
+                                        r"LeftFoot\), a guess from the joint names \(no joint named like a left "
+                                        r"foot or ankle\)\); write one like .*cmu_max.json and pass --mapping"):
         find_mapping(load_bvh(renamed), "humanoid")
+
+
+# Other skeletons' names for SKELETON's joints: Mixamo's (namespaced), Daz's CMU conversion's
+# (side letters in front), a game rig's (side letters behind); Neck and the clavicles keep theirs.
+RIGS = {
+    "mixamo": {n: f"mixamorig:{n}" for n in NAMES},
+    "daz": {"Hips": "hip", "Spine": "abdomen", "Spine1": "chest", "Head": "head",
+            **{f"{s}{part}": f"{s[0].lower()}{daz}" for s in ("Left", "Right") for part, daz in
+               (("UpLeg", "Thigh"), ("Leg", "Shin"), ("Foot", "Foot"), ("Shoulder", "Collar"), ("Arm", "Shldr"),
+                ("ForeArm", "ForeArm"), ("Hand", "Hand"))}},
+    "game": {"Spine1": "Chest", **{f"{s}{part}": f"{game}_{s[0]}" for s in ("Left", "Right") for part, game in
+                                   (("UpLeg", "UpperLeg"), ("Leg", "LowerLeg"), ("Foot", "Foot"),
+                                    ("Shoulder", "Clavicle"), ("Arm", "UpperArm"), ("ForeArm", "LowerArm"),
+                                    ("Hand", "Hand"))}},
+}
+
+
+def renamed_text(text: str, names: dict[str, str]) -> str:
+    return re.sub(r"^(\s*(?:ROOT|JOINT) )(\S+)$", lambda m: m[1] + names.get(m[2], m[2]), text, flags=re.M)
+
+
+@pytest.mark.parametrize("rig, z_up", [("mixamo", True), ("daz", False), ("game", True)])
+def test_a_skeleton_no_mapping_names_is_guessed(imported, tmp_path, rig, z_up):
+    """The walk under another rig's joint names, and in z-up coordinates, imports without a
+    mapping file into the same clip as through the shipped mapping: the guess finds the same
+    joints, and the axes from the rest pose."""
+    _, character, expected = imported
+    path = tmp_path / f"{rig}.bvh"
+    path.write_text(renamed_text(bvh_text(walking_frames(), z_up=z_up), RIGS[rig]))
+    bvh = load_bvh(path)
+    mapping = find_mapping(bvh, "humanoid")
+    shipped = load_mapping(SKELETONS / "cmu_mb.json", "humanoid")
+    assert mapping.path is None and mapping.bodies == {b: RIGS[rig].get(j, j) for b, j in shipped.bodies.items()}
+    result = import_bvh(bvh, character, mapping, fps=60)
+    assert result.report["mapping"] == "guessed from the joint names"
+    np.testing.assert_allclose(result.clip.qpos, expected.clip.qpos, atol=1e-6)
+
+
+def test_the_guess_needs_a_standing_rest_pose(tmp_path):
+    text = bvh_text(walking_frames()).replace("OFFSET 0 20 0\n", "OFFSET 0 -80 0\n", 1)  # Spine1 below the hips
+    path = tmp_path / "upside_down.bvh"
+    path.write_text(renamed_text(text, RIGS["mixamo"]))
+    with pytest.raises(UserError, match=r"a guess from the joint names \(its rest pose does not stand"):
+        find_mapping(load_bvh(path), "humanoid")
 
 
 # --------------------------------------------------------------------------------------------- CLI
@@ -272,6 +328,26 @@ def test_import_command(walk_file, tmp_path, capsys):
     assert clip.loop and clip.num_frames == 31 and math.isclose(clip.duration, 1.0, rel_tol=1e-6)
     assert cli.main(["clips", "info", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["valid"]
+
+
+def test_import_command_shows_a_guessed_mapping_as_a_file(walk_file, tmp_path, capsys):
+    """What the guess chose is printed, and --json gives it as a mapping file that imports the
+    same clip when passed back with --mapping."""
+    source = tmp_path / "mixamo.bvh"
+    source.write_text(renamed_text(walk_file.read_text(), RIGS["mixamo"]))
+    out = tmp_path / "guessed.txt"
+    assert cli.main(["clips", "import", str(source), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "mapping guessed from the joint names" in printed and "chest mixamorig:Spine1" in printed
+    assert cli.main(["clips", "import", str(source), "--out", str(out), "--json"]) == 0
+    mapping_file = tmp_path / "mapping.json"
+    mapping_file.write_text(json.dumps(json.loads(capsys.readouterr().out)["mapping_file"]))
+    again = tmp_path / "again.txt"
+    assert cli.main(["clips", "import", str(source), "--out", str(again), "--mapping", str(mapping_file)]) == 0
+    def frames(path):  # all but the comment
+        return [line for line in path.read_text().splitlines() if not line.startswith('"Comment"')]
+
+    assert frames(again) == frames(out)
 
 
 @pytest.mark.parametrize("args, message", [

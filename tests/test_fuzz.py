@@ -1,5 +1,5 @@
-"""Fuzzed input for the parsers a user feeds: any clip, dataset, config override or sweep spec
-gives a result or a one-line UserError, never another exception (a traceback)."""
+"""Fuzzed input for the parsers a user feeds: any clip, dataset, config override, sweep spec or
+BVH file gives a result or a one-line UserError, never another exception (a traceback)."""
 
 import json
 
@@ -93,3 +93,35 @@ def test_broken_files(character, tmp_path, text):
     path.write_text(text)
     with pytest.raises(UserError):
         load_clip(path, character)
+
+
+# A BVH file of tests/test_bvh.py's walk under random edits: words replaced by other words or
+# numbers, lines dropped, the file cut short; joint names renamed at random (the mapping's guess).
+bvh_edits = st.lists(st.tuples(st.floats(0, 1, exclude_max=True),
+                               st.one_of(st.none(), st.text(max_size=10),
+                                         st.sampled_from(["0", "-1", "1e9", "nan", "{", "}", "JOINT", "End",
+                                                          "lThigh", "UpperLeg_L", "Head", "mixamorig:Hips"]))),
+                     max_size=6)
+
+
+@SETTINGS
+@given(edits=bvh_edits, cut=st.one_of(st.none(), st.floats(0, 1)))
+def test_any_bvh_file_imports_or_is_one_line(character, edits, cut):
+    from pathlib import Path
+
+    from test_bvh import bvh_text, walking_frames
+
+    from mjxmimic.motion.bvh import parse_bvh
+    from mjxmimic.motion.bvh_import import find_mapping, import_bvh
+
+    words = bvh_text(walking_frames(0.3)).replace("\n", " \n ").split(" ")
+    for where, word in edits:
+        words[int(where * len(words))] = "" if word is None else word
+    text = " ".join(words)
+    if cut is not None:
+        text = text[:int(cut * len(text))]
+    try:
+        bvh = parse_bvh(text, Path("fuzz.bvh"))
+        import_bvh(bvh, character, find_mapping(bvh, "humanoid"), fps=30)
+    except UserError as err:
+        _one_line(err)

@@ -228,8 +228,9 @@ def add_import_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--character", default="humanoid", metavar="NAME|PATH",
                         help="the character to move (default: humanoid)")
     parser.add_argument("--mapping", metavar="FILE.json", default=None,
-                        help="skeleton mapping file (default: the shipped one whose joint names the file has; "
-                             "see mjxmimic/motion/skeletons/)")
+                        help="skeleton mapping file (default: the shipped one whose joint names the file has, "
+                             "see mjxmimic/motion/skeletons/; else, for the humanoid, one guessed from "
+                             "the joint names and the standing rest pose)")
     parser.add_argument("--start", type=float, default=0.0, help="first second of the recording to keep (default 0)")
     parser.add_argument("--end", type=float, default=None, help="last second to keep (default: its end)")
     parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the clip (default 60)")
@@ -252,17 +253,23 @@ def run_import(args: argparse.Namespace) -> int:
     result = import_bvh(bvh, character, mapping, start=args.start, end=args.end, fps=args.fps,
                         loop=args.loop == "wrap", name=out.stem)
     text = format_clip(result.clip, character, comment=f"imported from {Path(args.file).name} by mjxmimic clips "
-                       f"import ({mapping.path.name}, {args.start:g} to {result.report['end_s']:g} s)")
+                       f"import ({mapping.label}, {args.start:g} to {result.report['end_s']:g} s)")
     _write_clip(text, out, character)
     report = {"clip": str(out), "source": str(args.file), **result.report}
+    if mapping.path is None:  # guessed: shown, and given as a file to save and edit
+        report["mapping_file"] = mapping.as_file(name)
     if args.json:
         print(json.dumps(report))
         return 0
     print(f"{out}: {report['frames']} frames at {report['fps']:g} fps, {report['duration_s']:.2f} s "
           f"(from {report['source_frames']} at {report['source_fps']:.0f} fps, {report['start_s']:g} to "
           f"{report['end_s']:.2f} s), loop {args.loop}")
-    print(f"  mapping {mapping.path.name}, scale {report['scale']:.4f} m per unit, moved {report['ground_shift_m']:+.3f} m "
+    print(f"  mapping {mapping.label}, scale {report['scale']:.4f} m per unit, moved {report['ground_shift_m']:+.3f} m "
           f"to the ground")
+    if mapping.path is None:
+        pairs = ", ".join(f"{body} {joint}" for body, joint in mapping.bodies.items())
+        print(f"  guessed: {pairs}; up {report['mapping_file']['up']}, facing {report['mapping_file']['forward']} "
+              f"(--json gives it as a mapping file, to edit and pass with --mapping)")
     _print_quality(report, "to the scaled source about the hips")
     return 0
 

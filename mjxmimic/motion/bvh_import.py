@@ -1,7 +1,7 @@
 """A BVH recording -> a clip for one of our characters (`mjxmimic clips import`).
 
 The source skeleton is mapped onto the character by a mapping file (`skeletons/*.json`, picked by
-the joint names it needs, or given): which source joint drives which character body, the
+the joint names it needs, or given; for the humanoid, else guessed: `skeleton_guess`): which source joint drives which character body, the
 source's up and forward axes, and the leg whose length sets the scale. Each mapped body takes its
 source joint's world orientation; where a body has one mapped child (a thigh, a forearm), the
 rest-pose bone directions of the two skeletons are aligned first, so that a leg that rests
@@ -31,12 +31,22 @@ AXIS_NAMES = {"x": 0, "y": 1, "z": 2}
 
 @dataclasses.dataclass(frozen=True)
 class Mapping:
-    path: Path
+    path: Path | None  # None: guessed from the joint names (skeleton_guess)
     up: np.ndarray  # (3,) the source's up axis, in source coordinates
     forward: np.ndarray  # (3,) the direction the source skeleton faces at rest
     bodies: dict[str, str]  # character body -> source joint
     scale_chain: tuple[str, ...]  # character bodies from hip to ankle
     root_anchor: tuple[str, ...]  # bodies whose mean position places the root (the hip joints)
+
+    @property
+    def label(self) -> str:
+        return self.path.name if self.path is not None else "guessed from the joint names"
+
+    def as_file(self, character_name: str) -> dict:
+        """The mapping in the format of skeletons/*.json, to save and edit."""
+        return {"up": _axis_text(self.up), "forward": _axis_text(self.forward),
+                "characters": {character_name: {"bodies": dict(self.bodies), "scale_chain": list(self.scale_chain),
+                                                "root_anchor": list(self.root_anchor)}}}
 
 
 def _axis(text: object, where: str) -> np.ndarray:
@@ -45,6 +55,11 @@ def _axis(text: object, where: str) -> np.ndarray:
     out = np.zeros(3)
     out[AXIS_NAMES[text[1]]] = 1.0 if text[0] == "+" else -1.0
     return out
+
+
+def _axis_text(axis: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(axis)))
+    return ("+" if axis[k] > 0 else "-") + "xyz"[k]
 
 
 def load_mapping(path: Path, character_name: str) -> Mapping:
@@ -69,7 +84,10 @@ def load_mapping(path: Path, character_name: str) -> Mapping:
 
 
 def find_mapping(bvh: Bvh, character_name: str) -> Mapping:
-    """The shipped mapping whose source joints the file has, all of them."""
+    """The shipped mapping whose source joints the file has, all of them; else, for the humanoid,
+    one guessed from the joint names and the rest pose."""
+    from mjxmimic.motion import skeleton_guess
+
     names = set(bvh.names)
     tried = []
     for path in sorted(SKELETONS.glob("*.json")):
@@ -78,6 +96,11 @@ def find_mapping(bvh: Bvh, character_name: str) -> Mapping:
         if not missing:
             return mapping
         tried.append(f"{path.stem} (no {missing[0]})")
+    if character_name == skeleton_guess.CHARACTER:
+        try:
+            return skeleton_guess.guess_mapping(bvh)
+        except skeleton_guess.NoGuess as why:
+            tried.append(f"a guess from the joint names ({why})")
     raise UserError(f"{bvh.path}: no skeleton mapping fits its joints (tried {', '.join(tried)}); "
                     f"write one like {SKELETONS / 'cmu_max.json'} and pass --mapping")
 
@@ -107,15 +130,15 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     body_id = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in mapping.bodies}
     for body, bid in body_id.items():
         if bid < 0:
-            raise UserError(f"{mapping.path}: the character has no body {body!r}")
+            raise UserError(f"{mapping.path or mapping.label}: the character has no body {body!r}")
     for joint in mapping.bodies.values():
         if joint not in bvh.names:
-            raise UserError(f"{bvh.path}: no joint {joint!r}, which {mapping.path.name} maps")
+            raise UserError(f"{bvh.path}: no joint {joint!r}, which {mapping.label} maps")
     if model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE or model.jnt_bodyid[0] != 1:
         raise UserError(f"{character.xml_path}: the character's first body needs a free joint")
     root = model.body(1).name
     if mapping.bodies.get(root) is None:
-        raise UserError(f"{mapping.path}: the character's root body {root!r} is not mapped")
+        raise UserError(f"{mapping.path or mapping.label}: the character's root body {root!r} is not mapped")
     if fps <= 0:
         raise UserError(f"--fps {fps:g}: must be positive")
 
@@ -269,7 +292,7 @@ def _report(character: Character, mapping: Mapping, clip: Clip, bvh: Bvh, src_po
     skating = quality.foot_skating(character, clip.qpos, clip.fps)
     return {
         "frames": clip.num_frames, "fps": round(clip.fps, 9), "duration_s": round(clip.duration, 9), "scale": scale,
-        "mapping": str(mapping.path),
+        "mapping": str(mapping.path or mapping.label),
         "end_effector_error_m": errors,
         "end_effector_error_mean_m": float(np.mean(list(errors.values()))) if errors else None,
         "foot_skating_m_per_s": skating,
