@@ -132,6 +132,27 @@ def test_retarget_cli(g1_env, deepmimic_dir, capsys):
     assert "valid" in capsys.readouterr().out
 
 
+def test_bvh_import_onto_the_g1_goes_through_the_humanoid(g1_env, capsys):
+    """`clips import --character g1`: no skeleton mapping names the G1, so the motion is imported
+    onto the humanoid and retargeted, the same clip as the two commands one after the other."""
+    from test_bvh import bvh_text, walking_frames
+
+    source = g1_env / "walk.bvh"
+    source.write_text(bvh_text(walking_frames()))
+    out, humanoid_clip, two_steps = g1_env / "g1_walk.txt", g1_env / "humanoid_walk.txt", g1_env / "g1_walk2.txt"
+    assert cli.main(["clips", "import", str(source), "--character", "g1", "--out", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["via"] == "humanoid" and report["method"] == "ik" and report["import"]["mapping"].endswith("cmu_mb.json")
+    assert cli.main(["clips", "import", str(source), "--out", str(humanoid_clip)]) == 0
+    assert cli.main(["clips", "retarget", str(humanoid_clip), "--to", "g1", "--out", str(two_steps)]) == 0
+    g1 = load_character(resolve_xml("g1"))
+    np.testing.assert_allclose(load_clip(out, g1).qpos, load_clip(two_steps, g1).qpos, atol=1e-9)
+    capsys.readouterr()
+    assert cli.main(["clips", "import", str(source), "--character", "dog3d", "--out", str(g1_env / "dog.txt")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no skeleton mapping moves dog3d" in err and "\n" not in err
+
+
 @pytest.mark.parametrize("content, message", [
     ("{", "is not JSON"),
     ('{"orientations": {}, "positions": {}, "scale_chain": {"target": ["a", "b"], "source": ["c", "d"]}}',

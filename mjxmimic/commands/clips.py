@@ -226,7 +226,8 @@ def add_import_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", metavar="FILE.bvh", help="motion capture file (BVH)")
     parser.add_argument("--out", metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
     parser.add_argument("--character", default="humanoid", metavar="NAME|PATH",
-                        help="the character to move (default: humanoid)")
+                        help="the character to move (default: humanoid; one that no mapping names, e.g. g1, "
+                             "through the humanoid and mjxmimic/motion/retargets/)")
     parser.add_argument("--mapping", metavar="FILE.json", default=None,
                         help="skeleton mapping file (default: the shipped one whose joint names the file has, "
                              "see mjxmimic/motion/skeletons/; else, for the humanoid, one guessed from "
@@ -240,37 +241,63 @@ def add_import_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_import(args: argparse.Namespace) -> int:
-    """BVH -> a validated clip file, written only when it reads back as one (mjxmimic.motion.bvh_import)."""
+    """BVH -> a validated clip file, written only when it reads back as one (mjxmimic.motion.bvh_import).
+    A character that no skeleton mapping names (the G1) gets the motion through the humanoid: imported
+    onto it, then retargeted as `clips retarget` does."""
+    from mjxmimic.core.character import load_character, resolve_xml
     from mjxmimic.motion.bvh import load_bvh
-    from mjxmimic.motion.bvh_import import find_mapping, import_bvh, load_mapping
+    from mjxmimic.motion.bvh_import import find_mapping, import_bvh, load_mapping, mapped_characters
     from mjxmimic.motion.clip import format_clip
+    from mjxmimic.motion.retarget import find_map, retarget
 
     character = _character(args)
     name = Path(character.xml_path).stem
+    via = None
+    if args.mapping is None and name not in mapped_characters():
+        try:
+            retarget_map = find_map("humanoid", name)
+        except UserError:
+            raise UserError(f"no skeleton mapping moves {name} (mjxmimic/motion/skeletons/), nor a retarget file from "
+                            f"the humanoid (mjxmimic/motion/retargets/); write a mapping like cmu_max.json and pass "
+                            f"--mapping") from None
+        via = load_character(resolve_xml("humanoid"))
     bvh = load_bvh(args.file)
-    mapping = load_mapping(Path(args.mapping), name) if args.mapping else find_mapping(bvh, name)
+    first = via or character
+    first_name = Path(first.xml_path).stem
+    mapping = load_mapping(Path(args.mapping), first_name) if args.mapping else find_mapping(bvh, first_name)
     out = Path(args.out)
-    result = import_bvh(bvh, character, mapping, start=args.start, end=args.end, fps=args.fps,
+    result = import_bvh(bvh, first, mapping, start=args.start, end=args.end, fps=args.fps,
                         loop=args.loop == "wrap", name=out.stem)
-    text = format_clip(result.clip, character, comment=f"imported from {Path(args.file).name} by mjxmimic clips "
-                       f"import ({mapping.label}, {args.start:g} to {result.report['end_s']:g} s)")
-    _write_clip(text, out, character)
     report = {"clip": str(out), "source": str(args.file), **result.report}
     if mapping.path is None:  # guessed: shown, and given as a file to save and edit
-        report["mapping_file"] = mapping.as_file(name)
+        report["mapping_file"] = mapping.as_file(first_name)
+    clip, how = result.clip, f"{mapping.label}, {args.start:g} to {result.report['end_s']:g} s"
+    if via is not None:
+        moved = retarget(result.clip, via, character, retarget_map)
+        clip, how = moved.clip, f"{how}, through the humanoid ({moved.report['method']})"
+        report = {"clip": str(out), "source": str(args.file), "via": first_name, "import": report, **moved.report}
+    text = format_clip(clip, character, comment=f"imported from {Path(args.file).name} by mjxmimic clips import "
+                       f"({how})")
+    _write_clip(text, out, character)
     if args.json:
         print(json.dumps(report))
         return 0
+    imported = report.get("import", report)
     print(f"{out}: {report['frames']} frames at {report['fps']:g} fps, {report['duration_s']:.2f} s "
-          f"(from {report['source_frames']} at {report['source_fps']:.0f} fps, {report['start_s']:g} to "
-          f"{report['end_s']:.2f} s), loop {args.loop}")
-    print(f"  mapping {mapping.label}, scale {report['scale']:.4f} m per unit, moved {report['ground_shift_m']:+.3f} m "
-          f"to the ground")
+          f"(from {imported['source_frames']} at {imported['source_fps']:.0f} fps, {imported['start_s']:g} to "
+          f"{imported['end_s']:.2f} s), loop {args.loop}")
+    print(f"  mapping {mapping.label}, scale {imported['scale']:.4f} m per unit, moved "
+          f"{imported['ground_shift_m']:+.3f} m to the ground")
     if mapping.path is None:
         pairs = ", ".join(f"{body} {joint}" for body, joint in mapping.bodies.items())
-        print(f"  guessed: {pairs}; up {report['mapping_file']['up']}, facing {report['mapping_file']['forward']} "
+        axes = imported["mapping_file"]
+        print(f"  guessed: {pairs}; up {axes['up']}, facing {axes['forward']} "
               f"(--json gives it as a mapping file, to edit and pass with --mapping)")
-    _print_quality(report, "to the scaled source about the hips")
+    _print_quality(imported, "to the scaled source about the hips")
+    if via is not None:
+        print(f"  then {first_name} -> {name}: inverse kinematics ({Path(report['map']).name}), scale "
+              f"{report['scale']:.3f}, moved {report['ground_shift_m']:+.3f} m to the ground")
+        _print_quality(report, "to the scaled humanoid, about the root")
     return 0
 
 

@@ -83,6 +83,17 @@ def load_mapping(path: Path, character_name: str) -> Mapping:
                    tuple(anchor))
 
 
+def mapped_characters() -> set[str]:
+    """The characters that a shipped mapping moves, or that a guess can (the humanoid)."""
+    from mjxmimic.motion import skeleton_guess
+
+    names = {skeleton_guess.CHARACTER}
+    for path in SKELETONS.glob("*.json"):
+        data = read_json(path, "mapping file")
+        names |= set(data.get("characters", {})) if isinstance(data, dict) else set()
+    return names
+
+
 def find_mapping(bvh: Bvh, character_name: str) -> Mapping:
     """The shipped mapping whose source joints the file has, all of them; else, for the humanoid,
     one guessed from the joint names and the rest pose."""
