@@ -307,6 +307,19 @@ def test_a_skeleton_no_mapping_names_is_guessed(imported, tmp_path, rig, z_up):
     np.testing.assert_allclose(result.clip.qpos, expected.clip.qpos, atol=1e-6)
 
 
+def test_a_rest_pose_that_does_not_stand_is_refused(tmp_path, monkeypatch):
+    """Legs resting along x (as LAFAN1's folded rest pose has them): the names fit cmu_mb, but its
+    bone directions would be wrong, so the import says why instead of writing a broken clip."""
+    lying = [(n, p, (-o[1], o[0], o[2]) if n.endswith(("Leg", "Foot")) else o) for n, p, o in SKELETON]
+    monkeypatch.setitem(globals(), "SKELETON", lying)
+    path = tmp_path / "lying.bvh"
+    path.write_text(bvh_text(walking_frames()))
+    bvh = load_bvh(path)
+    with pytest.raises(UserError, match=r"lying.bvh: in its rest pose \(every channel zero\) RightFoot is not below "
+                                        r"Hips along \+y \(cmu_mb.json\): .* this one does not stand"):
+        import_bvh(bvh, load_character(), find_mapping(bvh, "humanoid"))
+
+
 def test_the_guess_needs_a_standing_rest_pose(tmp_path):
     text = bvh_text(walking_frames()).replace("OFFSET 0 20 0\n", "OFFSET 0 -80 0\n", 1)  # Spine1 below the hips
     path = tmp_path / "upside_down.bvh"

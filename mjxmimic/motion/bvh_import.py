@@ -166,6 +166,7 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     q_world = _matrix_quat(to_world)
     rest = bvh.rest_positions()
     joint_of = {b: bvh.index(j) for b, j in mapping.bodies.items()}
+    _require_standing_rest(bvh, mapping, rest, joint_of, root)
 
     # the character at rest (every joint at zero) for bone directions and frames
     data = mujoco.MjData(model)
@@ -261,6 +262,17 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
                   joint_limit_hit_rate=limit_hits / max(hinge_samples, 1), source_frames=frames,
                   source_fps=1.0 / bvh.frame_time, start_s=start, end_s=stop)
     return Imported(clip, report)
+
+
+def _require_standing_rest(bvh: Bvh, mapping: Mapping, rest: np.ndarray, joint_of: dict[str, int], root: str) -> None:
+    """Bone directions are read from the rest pose (all channels zero), so it must stand along the
+    mapping's up axis: a rig whose rest pose lies folded (LAFAN1's bones all along x) is refused."""
+    foot = mapping.scale_chain[-1]
+    down = rest[joint_of[foot]] - rest[joint_of[root]]
+    if float(down @ mapping.up) > -0.7 * float(np.linalg.norm(down)):
+        raise UserError(f"{bvh.path}: in its rest pose (every channel zero) {mapping.bodies[foot]} is not below "
+                        f"{mapping.bodies[root]} along {_axis_text(mapping.up)} ({mapping.label}): the import reads "
+                        f"bone directions from a standing rest pose, and this one does not stand")
 
 
 def _resample(model: mujoco.MjModel, qpos: np.ndarray, times: np.ndarray, fps: float, length: float) -> np.ndarray:
