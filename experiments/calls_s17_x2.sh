@@ -12,6 +12,8 @@
 #    >= 150 N) instead of the forward one.
 # 2. The preset's run and backflip without pushes for 200 M samples, so that the NR cost of a
 #    200 M push run is measured at the same budget.
+# Ran as: calls A (530 s, with the install; 548 s wall), B (570; 587 s wall) and C (PACK=policies,
+# 489; 465 s wall) on two H200s; records in experiments/robustness/sideways/.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips

@@ -1,16 +1,19 @@
 """The push table of graded run records (issue 17): per run folder, its clip, samples, best
 checkpoint, NR on MJX (released form, paper form as written in brackets), CPU / MJX NR, the push
 test on MJX (push.json) and on MuJoCo C (push_cpu.json) beside Table 6 and 1.5 x Table 6, and
-the NR cost against the preset's 100 M policy of the clip without pushes (../skills_100m/CLIP).
-The files are those that `experiments/device_train.sh`'s grade_NAME writes.
+the NR cost against the preset's 100 M policy of the clip without pushes (../skills_100m/CLIP),
+or against the runs given after --baselines (the clip's own, by its config). The files are those
+that `experiments/device_train.sh`'s grade_NAME writes.
 
     python experiments/robustness/table.py experiments/robustness/root_frame/*
+    python experiments/robustness/table.py experiments/robustness/sideways/* --baselines \
+        experiments/robustness/sideways/r200 experiments/robustness/sideways/b200
 """
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
 from mjxmimic.commands.evaluate import PAPER_PUSH_N
@@ -28,13 +31,14 @@ def _forces(result: dict | None) -> str:
     return f"{result['push_forward_n']:.0f} / {result['push_sideways_n']:.0f} N" if result else "-"
 
 
-def row(run: Path) -> str:
+def row(run: Path, baselines: dict[str, Path]) -> str:
     config = folder.load_config(run)
     clip = config.clip.name
     best = folder.read_best(run)
     nr = best["eval"]["nr"]
     cpu = _json(run / "play_cpu.json")
-    baseline = folder.read_best(BASELINES / clip) if (BASELINES / clip).is_dir() else None
+    base = baselines.get(clip, BASELINES / clip)
+    baseline = folder.read_best(base) if base.is_dir() else None
     cost = f"{baseline['eval']['nr'] - nr:.3f}" if baseline else "-"
     table6 = PAPER_PUSH_N.get(clip)
     paper = f"{table6[0]} / {table6[1]} N" if table6 else "-"
@@ -46,13 +50,19 @@ def row(run: Path) -> str:
             f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} |")
 
 
-def main(paths: list[str]) -> None:
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    parser.add_argument("--baselines", nargs="*", type=Path, default=[],
+                        help="runs without pushes, one per clip, to measure the NR cost against")
+    args = parser.parse_args()
+    baselines = {folder.load_config(run).clip.name: run for run in args.baselines}
     print("| run | clip | pushes | pose termination | samples | best at | NR on MJX | NR cost | CPU / MJX "
           "| push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 |")
     print("|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|")
-    for path in paths:
-        print(row(Path(path)))
+    for run in args.runs:
+        print(row(run, baselines))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
