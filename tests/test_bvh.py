@@ -307,24 +307,55 @@ def test_a_skeleton_no_mapping_names_is_guessed(imported, tmp_path, rig, z_up):
     np.testing.assert_allclose(result.clip.qpos, expected.clip.qpos, atol=1e-6)
 
 
-def test_a_rest_pose_that_does_not_stand_is_refused(tmp_path, monkeypatch):
-    """Legs resting along x (as LAFAN1's folded rest pose has them): the names fit cmu_mb, but its
-    bone directions would be wrong, so the import says why instead of writing a broken clip."""
-    lying = [(n, p, (-o[1], o[0], o[2]) if n.endswith(("Leg", "Foot")) else o) for n, p, o in SKELETON]
-    monkeypatch.setitem(globals(), "SKELETON", lying)
-    path = tmp_path / "lying.bvh"
-    path.write_text(bvh_text(walking_frames()))
+def folded(frames: np.ndarray, seed: int = 0) -> tuple[list, dict, np.ndarray]:
+    """SKELETON and the walk's channel values rewritten for other joint frames (each joint's turned
+    by a random constant rotation C, as LAFAN1's differ from an upright rest pose): the same world
+    motion, with a rest pose that lies in a heap. Local rotations become C_parent^-1 L C, offsets
+    C_parent^-1 o."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    turn = {name: Rotation.random(random_state=rng) for name in NAMES}
+    parent_turn = {n: turn[p] if p else Rotation.identity() for n, p, _ in SKELETON}
+    skeleton = [(n, p, tuple(np.round(parent_turn[n].inv().apply(o), 9))) for n, p, o in SKELETON]
+    ends = {n: tuple(np.round(turn[n].inv().apply(o), 9)) for n, o in END_SITES.items()}
+    out = frames.copy()
+    for name in NAMES:
+        cols = [column(name, axis) for axis in "ZXY"]
+        local = Rotation.from_euler("ZXY", frames[:, cols], degrees=True)
+        out[:, cols] = (parent_turn[name].inv() * local * turn[name]).as_euler("ZXY", degrees=True)
+    return skeleton, ends, out
+
+
+@pytest.mark.parametrize("rig", [None, "mixamo"])
+def test_a_rest_pose_that_does_not_stand_is_calibrated_on_the_recording(imported, tmp_path, monkeypatch, rig):
+    """Joint frames of another convention, whose rest pose does not stand: the bones are matched
+    at the recording's frame nearest the character's rest pose instead (through cmu_mb's names, or
+    a guess whose axes come from the motion), and the clip comes out as from the upright file."""
+    _, character, expected = imported
+    skeleton, ends, frames = folded(walking_frames())
+    monkeypatch.setitem(globals(), "SKELETON", skeleton)
+    monkeypatch.setitem(globals(), "END_SITES", ends)
+    path = tmp_path / "folded.bvh"
+    text = bvh_text(frames)
+    path.write_text(renamed_text(text, RIGS[rig]) if rig else text)
     bvh = load_bvh(path)
-    with pytest.raises(UserError, match=r"lying.bvh: in its rest pose \(every channel zero\) RightFoot is not below "
-                                        r"Hips along \+y \(cmu_mb.json\): .* this one does not stand"):
-        import_bvh(bvh, load_character(), find_mapping(bvh, "humanoid"))
+    result = import_bvh(bvh, character, find_mapping(bvh, "humanoid"), fps=60)
+    calibration = result.report["calibration"]
+    assert isinstance(calibration, dict) and calibration["bone_angle_rad"] < 0.3
+    got, _ = _body_positions(character, result.clip.qpos)
+    want, _ = _body_positions(character, expected.clip.qpos)
+    error = np.linalg.norm((got - got[:, 1:2]) - (want - want[:, 1:2]), axis=-1)  # about the root
+    assert error.max() < 0.01 and error.mean() < 0.002, (error.max(), error.mean())
+    np.testing.assert_allclose(result.clip.qpos[:, :3], expected.clip.qpos[:, :3], atol=0.01)
 
 
 def test_the_guess_needs_a_standing_rest_pose(tmp_path):
     text = bvh_text(walking_frames()).replace("OFFSET 0 20 0\n", "OFFSET 0 -80 0\n", 1)  # Spine1 below the hips
     path = tmp_path / "upside_down.bvh"
     path.write_text(renamed_text(text, RIGS["mixamo"]))
-    with pytest.raises(UserError, match=r"a guess from the joint names \(its rest pose does not stand"):
+    with pytest.raises(UserError, match=r"a guess from the joint names \(neither its rest pose nor its motion "
+                                        r"stands"):
         find_mapping(load_bvh(path), "humanoid")
 
 

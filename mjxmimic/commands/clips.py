@@ -231,7 +231,7 @@ def add_import_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mapping", metavar="FILE.json", default=None,
                         help="skeleton mapping file (default: the shipped one whose joint names the file has, "
                              "see mjxmimic/motion/skeletons/; else, for the humanoid, one guessed from "
-                             "the joint names and the standing rest pose)")
+                             "the joint names and the rest pose)")
     parser.add_argument("--start", type=float, default=0.0, help="first second of the recording to keep (default 0)")
     parser.add_argument("--end", type=float, default=None, help="last second to keep (default: its end)")
     parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the clip (default 60)")
@@ -288,6 +288,10 @@ def run_import(args: argparse.Namespace) -> int:
           f"{imported['end_s']:.2f} s), loop {args.loop}")
     print(f"  mapping {mapping.label}, scale {imported['scale']:.4f} m per unit, moved "
           f"{imported['ground_shift_m']:+.3f} m to the ground")
+    calibration = imported["calibration"]
+    if isinstance(calibration, dict):
+        print(f"  its rest pose does not stand: bones matched at frame {calibration['frame']} "
+              f"({calibration['time_s']:.2f} s), {calibration['bone_angle_rad']:.2f} rad from the character's rest pose")
     if mapping.path is None:
         pairs = ", ".join(f"{body} {joint}" for body, joint in mapping.bodies.items())
         axes = imported["mapping_file"]

@@ -5,14 +5,17 @@ the joint names it needs, or given; for the humanoid, else guessed: `skeleton_gu
 source's up and forward axes, and the leg whose length sets the scale. Each mapped body takes its
 source joint's world orientation; where a body has one mapped child (a thigh, a forearm), the
 rest-pose bone directions of the two skeletons are aligned first, so that a leg that rests
-splayed in the capture still stands straight on the character. Hinges keep the twist about their
-axis (the rest passes on to the child) within their range; the root is scaled by the leg
-lengths' ratio; the clip is resampled, moved to the origin and put on the ground.
+splayed in the capture still stands straight on the character. A rest pose that does not stand
+(LAFAN1's joints each have a frame of their own, so its bones lie in a heap at rest) gives way to
+the recording's frame whose bones point most nearly as the character's do at rest. Hinges keep
+the twist about their axis (the rest passes on to the child) within their range; the root is
+scaled by the leg lengths' ratio; the clip is resampled, moved to the origin and put on the ground.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from pathlib import Path
 
 import mujoco
@@ -158,15 +161,14 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     if not 0 <= start < stop <= length + 1e-9:
         raise UserError(f"{bvh.path}: --start {start:g} --end {stop:g} s is not within its {length:.3f} s")
     first, last = int(np.floor(start / bvh.frame_time)), int(np.ceil(stop / bvh.frame_time - 1e-9))
-    src_pos, src_rot = bvh.forward_kinematics()
-    src_pos, src_rot = src_pos[first:last + 1], src_rot[first:last + 1]
+    all_pos, all_rot = bvh.forward_kinematics()
+    src_pos, src_rot = all_pos[first:last + 1], all_rot[first:last + 1]
     times = np.arange(first, last + 1) * bvh.frame_time
 
     to_world = _source_to_world(mapping)
     q_world = _matrix_quat(to_world)
     rest = bvh.rest_positions()
     joint_of = {b: bvh.index(j) for b, j in mapping.bodies.items()}
-    _require_standing_rest(bvh, mapping, rest, joint_of, root)
 
     # the character at rest (every joint at zero) for bone directions and frames
     data = mujoco.MjData(model)
@@ -185,18 +187,29 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
         if parent is not None:
             children[parent].append(body_id[b])
 
-    # desired world orientation of each mapped body, frame by frame
+    # desired world orientation of each mapped body, frame by frame: the source joint's turn from
+    # the calibration posture, applied to the body at rest (its bone first aligned with the source's)
+    bones = [(bid, children[bid][0], joint_of[b], joint_of[model.body(children[bid][0]).name])
+             for b, bid in body_id.items() if len(children[bid]) == 1]
+    leg = [(joint_of[a], joint_of[b]) for a, b in itertools.pairwise(mapping.scale_chain)]
+    spine = [(joint_of[root], joint_of[model.body(c).name]) for c in children[body_id[root]]
+             if model.body(c).name not in mapping.root_anchor]
+    cal = _calibration(bvh, mapping, to_world, q_world, all_pos, all_rot, joint_of, leg, spine, bones, rest_xpos,
+                       body_id)
     src_in_world = quat.mul(quat.mul(q_world, src_rot), quat.conj(q_world))
     desired: dict[int, np.ndarray] = {}
     for b, bid in body_id.items():
         align = np.array([1.0, 0.0, 0.0, 0.0])
-        if len(children[bid]) == 1:
-            child = children[bid][0]
-            target_bone = rest_xpos[child] - rest_xpos[bid]
-            source_bone = to_world @ (rest[joint_of[model.body(child).name]] - rest[joint_of[b]])
+        for body, child, jb, jc in bones:
+            if body != bid:
+                continue
+            target_bone = quat.rotate(cal.heading, rest_xpos[child] - rest_xpos[bid])
+            source_bone = cal.pos[jc] - cal.pos[jb]
             if np.linalg.norm(target_bone) > 1e-6 and np.linalg.norm(source_bone) > 1e-6:
                 align = quat.between(target_bone, source_bone)
-        desired[bid] = quat.mul(src_in_world[:, joint_of[b]], quat.mul(align, rest_xquat[bid]))
+        j = joint_of[b]
+        turn = quat.mul(src_in_world[:, j], quat.conj(cal.rot[j]))
+        desired[bid] = quat.mul(turn, quat.mul(align, quat.mul(cal.heading, rest_xquat[bid])))
 
     # joint by joint from the root: each takes what its parent left over
     frames = len(times)
@@ -259,20 +272,62 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     clip = Clip(name=name, path=None, loop=loop, durations=durations, qpos=qpos)
     report = _report(character, mapping, clip, bvh, src_pos, times - times[0], scale, to_world, joint_of, lowest)
     report.update(ground_shift_m=ground_shift, joint_limit_hits=limit_hits,
-                  joint_limit_hit_rate=limit_hits / max(hinge_samples, 1), source_frames=frames,
+                  joint_limit_hit_rate=limit_hits / max(hinge_samples, 1), source_frames=frames, **cal.report,
                   source_fps=1.0 / bvh.frame_time, start_s=start, end_s=stop)
     return Imported(clip, report)
 
 
-def _require_standing_rest(bvh: Bvh, mapping: Mapping, rest: np.ndarray, joint_of: dict[str, int], root: str) -> None:
-    """Bone directions are read from the rest pose (all channels zero), so it must stand along the
-    mapping's up axis: a rig whose rest pose lies folded (LAFAN1's bones all along x) is refused."""
-    foot = mapping.scale_chain[-1]
-    down = rest[joint_of[foot]] - rest[joint_of[root]]
-    if float(down @ mapping.up) > -0.7 * float(np.linalg.norm(down)):
-        raise UserError(f"{bvh.path}: in its rest pose (every channel zero) {mapping.bodies[foot]} is not below "
-                        f"{mapping.bodies[root]} along {_axis_text(mapping.up)} ({mapping.label}): the import reads "
-                        f"bone directions from a standing rest pose, and this one does not stand")
+def _rest_stands(bvh: Bvh, mapping: Mapping, down: list[tuple[int, int]], up: list[tuple[int, int]]) -> bool:
+    """Whether the rest pose (every channel zero) stands along the mapping's up axis: the bones
+    (joint index pairs) of `down` (a leg) point down and those of `up` (the spine) up, within 37
+    degrees."""
+    rest = bvh.rest_positions()
+
+    def along(pairs: list[tuple[int, int]], sign: float) -> bool:
+        return all(sign * float((rest[c] - rest[p]) @ mapping.up) >= 0.8 * float(np.linalg.norm(rest[c] - rest[p]))
+                   for p, c in pairs)
+
+    return along(down, -1.0) and along(up, 1.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Calibration:
+    """The source posture that the character's rest pose is matched with."""
+    rot: np.ndarray  # (J, 4) the source joints' world rotations there, in the character's axes
+    pos: np.ndarray  # (J, 3) their positions
+    heading: np.ndarray  # (4,) the turn about up from the character's rest facing to the source's
+    report: dict
+
+
+def _calibration(bvh: Bvh, mapping: Mapping, to_world: np.ndarray, q_world: np.ndarray, pos: np.ndarray,
+                 rot: np.ndarray, joint_of: dict[str, int], leg: list[tuple[int, int]], spine: list[tuple[int, int]],
+                 bones: list[tuple[int, int, int, int]], rest_xpos: np.ndarray,
+                 body_id: dict[str, int]) -> _Calibration:
+    """The file's rest pose where it stands. Where it does not (LAFAN1's bones all lie along x at
+    rest, each joint's frame its own), the recording's frame whose bones point most nearly as the
+    character's do at rest, turned to face as the source does there."""
+    if _rest_stands(bvh, mapping, leg, spine):
+        identity = np.tile([1.0, 0.0, 0.0, 0.0], (len(bvh.joints), 1))
+        return _Calibration(identity, bvh.rest_positions() @ to_world.T, np.array([1.0, 0.0, 0.0, 0.0]),
+                            {"calibration": "rest pose"})
+    pos = pos @ to_world.T
+    right, left = mapping.root_anchor[0], mapping.root_anchor[-1]
+    target_side = rest_xpos[body_id[left]] - rest_xpos[body_id[right]]
+    source_side = pos[:, joint_of[left]] - pos[:, joint_of[right]]
+    yaw = np.arctan2(source_side[:, 1], source_side[:, 0]) - np.arctan2(target_side[1], target_side[0])
+    if right == left:
+        yaw = np.zeros(len(pos))
+    heading = quat.from_yaw(yaw)  # (F, 4)
+    target = np.stack([rest_xpos[c] - rest_xpos[b] for b, c, _, _ in bones])  # (B, 3)
+    source = np.stack([pos[:, jc] - pos[:, jb] for _, _, jb, jc in bones], axis=1)  # (F, B, 3)
+    turned = quat.rotate(np.repeat(heading[:, None], len(bones), axis=1), np.broadcast_to(target, source.shape))
+    cos = np.sum(turned * source, axis=-1) / np.maximum(
+        np.linalg.norm(turned, axis=-1) * np.linalg.norm(source, axis=-1), 1e-12)
+    error = np.mean(np.arccos(np.clip(cos, -1.0, 1.0)), axis=1)  # (F,)
+    f = int(np.argmin(error))
+    world_rot = quat.mul(quat.mul(q_world, rot[f]), quat.conj(q_world))
+    return _Calibration(world_rot, pos[f], heading[f], {"calibration": {
+        "frame": f, "time_s": f * bvh.frame_time, "bone_angle_rad": float(error[f])}})
 
 
 def _resample(model: mujoco.MjModel, qpos: np.ndarray, times: np.ndarray, fps: float, length: float) -> np.ndarray:

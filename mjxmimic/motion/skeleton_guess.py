@@ -5,8 +5,8 @@ Names are split into words (`mixamorig:LeftUpLeg` -> left, up, leg; `lShldr` -> 
 `UpperArm_L` -> upper, arm, l), which give the side and the part. Each limb is found from its end
 up: the foot (or ankle) closest to the root, then the nearest ancestors named like a knee and a
 thigh (else the parents), and likewise hand, forearm, upper arm. The root is where the two legs
-meet, the chest where the arms and the head meet. The axes come from the rest pose, which must
-stand: up from the hips to the head, left from the right hip to the left one.
+meet, the chest where the arms and the head meet. The axes come from the rest pose where it stands
+(up from the hips to the head, left from the right hip to the left one), else from the motion.
 """
 
 from __future__ import annotations
@@ -108,13 +108,29 @@ def guess_mapping(bvh: Bvh) -> Mapping:
 
 
 def _axes(bvh: Bvh, bodies: dict[str, int]) -> tuple[np.ndarray, np.ndarray]:
-    """The source's up axis and the skeleton's facing, read from a standing rest pose."""
+    """The source's up axis and a facing: from the rest pose where it stands (the facing at rest
+    sets how each bone turns), else from the motion (up from the hips to the head on average; the
+    facing then only turns the whole clip)."""
     rest = bvh.rest_positions()
-    up = _snap(rest[bodies["neck"]] - rest[bodies["root"]], "its rest pose does not stand (hips to head)")
-    left = _snap(rest[bodies["left_hip"]] - rest[bodies["right_hip"]],
-                 "its rest pose's hips are not side by side")
-    if abs(float(up @ left)) > 0 or float((rest[bodies["left_ankle"]] - rest[bodies["root"]]) @ up) >= 0:
-        raise NoGuess("its rest pose does not stand (feet below the hips, head above)")
+    try:
+        up = _snap(rest[bodies["neck"]] - rest[bodies["root"]], "")
+        left = _snap(rest[bodies["left_hip"]] - rest[bodies["right_hip"]], "")
+        legs = [(f"{s}_{a}", f"{s}_{b}") for s in ("left", "right") for a, b in (("hip", "knee"), ("knee", "ankle"))]
+        if abs(float(up @ left)) == 0 and all(_snap(rest[bodies[b]] - rest[bodies[a]], "") @ up == -1 for a, b in legs):
+            return up, np.cross(left, up)
+    except NoGuess:
+        pass
+    pos, _ = bvh.forward_kinematics()
+    spine = pos[:, bodies["neck"]] - pos[:, bodies["root"]]
+    why = "neither its rest pose nor its motion stands (head above the hips, feet below)"
+    up = _snap(np.mean(spine / np.maximum(np.linalg.norm(spine, axis=1, keepdims=True), 1e-12), axis=0), why)
+    if float(np.mean(pos[:, bodies["left_ankle"]] - pos[:, bodies["root"]], axis=0) @ up) >= 0:
+        raise NoGuess(why)
+    side = np.mean(pos[:, bodies["left_hip"]] - pos[:, bodies["right_hip"]], axis=0)
+    side[np.argmax(np.abs(up))] = 0.0
+    k = int(np.argmax(np.abs(side))) if np.any(side) else int(np.argmin(np.abs(up)))
+    left = np.zeros(3)
+    left[k] = 1.0 if side[k] >= 0 else -1.0
     return up, np.cross(left, up)
 
 
