@@ -291,7 +291,8 @@ def run_import(args: argparse.Namespace) -> int:
     calibration = imported["calibration"]
     if isinstance(calibration, dict):
         print(f"  its rest pose does not stand: bones matched at frame {calibration['frame']} "
-              f"({calibration['time_s']:.2f} s), {calibration['bone_angle_rad']:.2f} rad from the character's rest pose")
+              f"({calibration['time_s']:.2f} s), {calibration['bone_angle_rad']:.2f} rad from the character's "
+              f"rest pose")
     if mapping.path is None:
         pairs = ", ".join(f"{body} {joint}" for body, joint in mapping.bodies.items())
         axes = imported["mapping_file"]

@@ -1,8 +1,9 @@
 """A BVH recording -> a clip for one of our characters (`mjxmimic clips import`).
 
 The source skeleton is mapped onto the character by a mapping file (`skeletons/*.json`, picked by
-the joint names it needs, or given; for the humanoid, else guessed: `skeleton_guess`): which source joint drives which character body, the
-source's up and forward axes, and the leg whose length sets the scale. Each mapped body takes its
+the joint names it needs, or given; for the humanoid, else guessed: `skeleton_guess`): which source
+joint drives which character body, the source's up and forward axes, and the leg whose length sets
+the scale. Each mapped body takes its
 source joint's world orientation; where a body has one mapped child (a thigh, a forearm), the
 rest-pose bone directions of the two skeletons are aligned first, so that a leg that rests
 splayed in the capture still stands straight on the character. A rest pose that does not stand
@@ -190,7 +191,7 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     # desired world orientation of each mapped body, frame by frame: the source joint's turn from
     # the calibration posture, applied to the body at rest (its bone first aligned with the source's)
     bones = [(bid, children[bid][0], joint_of[b], joint_of[model.body(children[bid][0]).name])
-             for b, bid in body_id.items() if len(children[bid]) == 1]
+             for b, bid in body_id.items() if len(children[bid]) == 1]  # (body, child, their joints)
     leg = [(joint_of[a], joint_of[b]) for a, b in itertools.pairwise(mapping.scale_chain)]
     spine = [(joint_of[root], joint_of[model.body(c).name]) for c in children[body_id[root]]
              if model.body(c).name not in mapping.root_anchor]
@@ -198,11 +199,11 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
                        body_id)
     src_in_world = quat.mul(quat.mul(q_world, src_rot), quat.conj(q_world))
     desired: dict[int, np.ndarray] = {}
+    bone_of = {body: (child, jb, jc) for body, child, jb, jc in bones}
     for b, bid in body_id.items():
         align = np.array([1.0, 0.0, 0.0, 0.0])
-        for body, child, jb, jc in bones:
-            if body != bid:
-                continue
+        if bid in bone_of:
+            child, jb, jc = bone_of[bid]
             target_bone = quat.rotate(cal.heading, rest_xpos[child] - rest_xpos[bid])
             source_bone = cal.pos[jc] - cal.pos[jb]
             if np.linalg.norm(target_bone) > 1e-6 and np.linalg.norm(source_bone) > 1e-6:

@@ -101,8 +101,8 @@ def guess_mapping(bvh: Bvh) -> Mapping:
     if len(set(bodies.values())) < len(bodies):
         raise NoGuess("two body parts fell on one joint")
     up, forward = _axes(bvh, bodies)
-    order = ["root", "chest", "neck"] + [f"{s}_{part}" for part in ("hip", "knee", "ankle", "shoulder", "elbow", "wrist")
-                                         for s in ("right", "left")]
+    parts = ("hip", "knee", "ankle", "shoulder", "elbow", "wrist")
+    order = ["root", "chest", "neck"] + [f"{s}_{part}" for part in parts for s in ("right", "left")]
     return Mapping(None, up, forward, {b: bvh.joints[bodies[b]].name for b in order},
                    ("right_hip", "right_knee", "right_ankle"), ("right_hip", "left_hip"))
 
@@ -126,11 +126,11 @@ def _axes(bvh: Bvh, bodies: dict[str, int]) -> tuple[np.ndarray, np.ndarray]:
     up = _snap(np.mean(spine / np.maximum(np.linalg.norm(spine, axis=1, keepdims=True), 1e-12), axis=0), why)
     if float(np.mean(pos[:, bodies["left_ankle"]] - pos[:, bodies["root"]], axis=0) @ up) >= 0:
         raise NoGuess(why)
-    side = np.mean(pos[:, bodies["left_hip"]] - pos[:, bodies["right_hip"]], axis=0)
-    side[np.argmax(np.abs(up))] = 0.0
-    k = int(np.argmax(np.abs(side))) if np.any(side) else int(np.argmin(np.abs(up)))
+    lateral = np.mean(pos[:, bodies["left_hip"]] - pos[:, bodies["right_hip"]], axis=0)
+    lateral[np.argmax(np.abs(up))] = 0.0
+    k = int(np.argmax(np.abs(lateral))) if np.any(lateral) else int(np.argmin(np.abs(up)))
     left = np.zeros(3)
-    left[k] = 1.0 if side[k] >= 0 else -1.0
+    left[k] = 1.0 if lateral[k] >= 0 else -1.0
     return up, np.cross(left, up)
 
 
