@@ -15,8 +15,8 @@
 #    0.02): pushes along the facing or to the sides up to 1.5 x Table 6's larger force of the
 #    clip, every 2 +- 1 s, ramped in over 50 M samples.
 # Ran as: calls A (510 s, with the install), B (555) and C (PACK=policies, 456) on four H200s;
-# records in experiments/robustness/root_frame/. (Call A's exit status 1 came from the summary
-# loop below before its fix: no run had a push test yet.)
+# records in experiments/robustness/root_frame/. (Call A's exit status 1 came from a summary loop
+# of this script, before its fix: no run had a push test yet; device_train.sh now prints the grades.)
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
@@ -29,12 +29,3 @@ PACK=${PACK:-none} bash experiments/device_train.sh "$1" \
   "ccR2|--clip cartwheel $push --set env.push_force_max_n=705;grade_ccR2;c0R|--clip cartwheel $root;grade_c0R" \
   "bcR2|--clip backflip $push --set env.push_force_max_n=660;grade_bcR2;b0R|--clip backflip $root;grade_b0R" \
   "k0R|--clip spinkick $root;grade_k0R;w0R|--clip walk $root;grade_w0R"
-for f in runs/*/push.json runs/*/push_cpu.json runs/*/play_cpu.json; do
-  [ -f "$f" ] || continue
-  python3 - "$f" <<'PY'
-import json, sys
-d = json.load(open(sys.argv[1]))
-keys = ("push_forward_n", "push_sideways_n", "nr", "nr_paper", "fall_rate")
-print(sys.argv[1], {k: d[k] for k in keys if k in d})
-PY
-done

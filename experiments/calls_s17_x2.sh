@@ -24,12 +24,3 @@ push="$long --set env.pose_termination_frame=root --set env.events=push --set en
 PACK=${PACK:-none} bash experiments/device_train.sh "$1" \
   "rcS|--clip run $push --set env.push_force_max_n=1080 --set env.push_sideways_scale=0.42;grade_rcS;r200|--clip run $long;grade_r200" \
   "bcS|--clip backflip $push --set env.push_force_max_n=660 --set env.push_sideways_scale=0.23;grade_bcS;b200|--clip backflip $long;grade_b200"
-for f in runs/*/push.json runs/*/push_cpu.json runs/*/play_cpu.json; do
-  [ -f "$f" ] || continue
-  python3 - "$f" <<'PY'
-import json, sys
-d = json.load(open(sys.argv[1]))
-keys = ("push_forward_n", "push_sideways_n", "nr", "nr_paper", "fall_rate")
-print(sys.argv[1], {k: d[k] for k in keys if k in d})
-PY
-done

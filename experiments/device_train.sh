@@ -18,7 +18,8 @@
 # A NAME that starts with "grade_" grades the run of the rest of its name once it is done: its
 # best checkpoint's push test on MJX (`mjxmimic eval RUN --push`, on the lane's GPU), then its
 # exported policy's NR and push test on MuJoCo C (`mjxmimic play`, on GRADE_WORKERS CPU cores,
-# beside the lane's next run); a run not done, or graded already, is skipped.
+# beside the lane's next run); a run not done, or graded already, is skipped. The call's report
+# lists each run's grades under its evaluations.
 # A NAME that starts with "warm_" only builds and compiles (run.max_seconds=1), so that the
 # runs after it load their programs from the compilation cache. Runs that are done (eval.json)
 # and warm-ups that ran are skipped.
@@ -62,6 +63,12 @@ bench() {  # NAME ARGS...
   local name=$1; shift
   mkdir -p /tmp/bench
   timeout $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli bench "$@" --out "/tmp/bench/$name.json" > "/tmp/bench/$name.log" 2>&1
+}
+
+keep_logs() {  # each run's log of this call into its folder (a run done in an earlier call has none)
+  for n in "${names[@]}"; do
+    [ -f "$OUT/$n.log" ] && mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
+  done
 }
 
 grade() {  # grade_NAME
@@ -114,13 +121,19 @@ for n in "${names[@]}"; do
   cp "runs/$n/metrics.jsonl" "$OUT/$n.metrics.jsonl" 2>/dev/null
   echo "== $n"; [ -f "$OUT/$n.log" ] && tr '\r' '\n' < "$OUT/$n.log" | grep -v -i warp | grep -v '^\s*$' | tail -n 3
   python3 - "runs/$n" <<'PY'
-import json, sys
+import json, os, sys
 for line in open(sys.argv[1] + "/metrics.jsonl"):
     d = json.loads(line)
     if "eval/nr" in d:
         extra = f"  stochastic {d['eval/stochastic_nr']:.3f}" if "eval/stochastic_nr" in d else ""
         print(f"  samples {d['step']:>11,}  wall {d['wall']:6.0f} s  NR {d['eval/nr']:.3f}"
               f"  paper {d['eval/nr_paper']:.3f}  falls {d['eval/fall_rate']:.2f}{extra}")
+for grade in ("push.json", "push_cpu.json", "play_cpu.json"):  # grade_NAME's files
+    path = os.path.join(sys.argv[1], grade)
+    if os.path.isfile(path):
+        d = json.load(open(path))
+        keys = ("push_forward_n", "push_sideways_n", "nr", "nr_paper", "fall_rate")
+        print(f"  {grade}: {({k: d[k] for k in keys if k in d})}")
 PY
 done
 files=0; bytes=0
@@ -142,9 +155,7 @@ if [ "${PACK:-checkpoints}" != checkpoints ]; then
       || echo "export $n failed") &
   done
   wait
-  for n in "${names[@]}"; do  # (a run done in an earlier call has no log of this one)
-    [ -f "$OUT/$n.log" ] && mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
-  done
+  keep_logs
   keep_best=(--exclude=best); [ "$PACK" = best ] && keep_best=()
   tar czf - --exclude=checkpoints --exclude=tb "${keep_best[@]}" runs | split -b 15M - "$OUT/policies.tgz."
   exit 0
@@ -152,9 +163,7 @@ fi
 for d in runs/*/checkpoints; do  # keep the newest checkpoint only: what a resume needs
   ls -1 "$d" | sort -n | head -n -1 | while read -r old; do rm -rf "${d:?}/$old"; done
 done
-for n in "${names[@]}"; do
-  [ -f "$OUT/$n.log" ] && mv "$OUT/$n.log" "runs/$n/train_$(date +%s).log"; rm -f "$OUT/$n.metrics.jsonl"
-done
+keep_logs
 # one archive per run, in 15 MiB parts; $OUT brings back at most 8 files and 64 MiB, so a run
 # that would not fit stays on the machine with the command that fetches it in a call of its own
 for n in "${names[@]}"; do

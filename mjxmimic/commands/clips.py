@@ -268,21 +268,20 @@ def run_import(args: argparse.Namespace) -> int:
     out = Path(args.out)
     result = import_bvh(bvh, first, mapping, start=args.start, end=args.end, fps=args.fps,
                         loop=args.loop == "wrap", name=out.stem)
-    report = {"clip": str(out), "source": str(args.file), **result.report}
+    imported = {"clip": str(out), "source": str(args.file), **result.report}
     if mapping.path is None:  # guessed: shown, and given as a file to save and edit
-        report["mapping_file"] = mapping.as_file(first_name)
-    clip, how = result.clip, f"{mapping.label}, {args.start:g} to {result.report['end_s']:g} s"
+        imported["mapping_file"] = mapping.as_file(first_name)
+    report, clip, how = imported, result.clip, f"{mapping.label}, {args.start:g} to {result.report['end_s']:g} s"
     if via is not None:
         moved = retarget(result.clip, via, character, retarget_map)
         clip, how = moved.clip, f"{how}, through the humanoid ({moved.report['method']})"
-        report = {"clip": str(out), "source": str(args.file), "via": first_name, "import": report, **moved.report}
+        report = {"clip": str(out), "source": str(args.file), "via": first_name, "import": imported, **moved.report}
     text = format_clip(clip, character, comment=f"imported from {Path(args.file).name} by mjxmimic clips import "
                        f"({how})")
     _write_clip(text, out, character)
     if args.json:
         print(json.dumps(report))
         return 0
-    imported = report.get("import", report)
     print(f"{out}: {report['frames']} frames at {report['fps']:g} fps, {report['duration_s']:.2f} s "
           f"(from {imported['source_frames']} at {imported['source_fps']:.0f} fps, {imported['start_s']:g} to "
           f"{imported['end_s']:.2f} s), loop {args.loop}")

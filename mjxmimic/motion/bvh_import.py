@@ -163,7 +163,7 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
         raise UserError(f"{bvh.path}: --start {start:g} --end {stop:g} s is not within its {length:.3f} s")
     first, last = int(np.floor(start / bvh.frame_time)), int(np.ceil(stop / bvh.frame_time - 1e-9))
     all_pos, all_rot = bvh.forward_kinematics()
-    src_pos, src_rot = all_pos[first:last + 1], all_rot[first:last + 1]
+    src_pos = all_pos[first:last + 1]
     times = np.arange(first, last + 1) * bvh.frame_time
 
     to_world = _source_to_world(mapping)
@@ -195,9 +195,13 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     leg = [(joint_of[a], joint_of[b]) for a, b in itertools.pairwise(mapping.scale_chain)]
     spine = [(joint_of[root], joint_of[model.body(c).name]) for c in children[body_id[root]]
              if model.body(c).name not in mapping.root_anchor]
-    cal = _calibration(bvh, mapping, to_world, q_world, all_pos, all_rot, joint_of, leg, spine, bones, rest_xpos,
-                       body_id)
-    src_in_world = quat.mul(quat.mul(q_world, src_rot), quat.conj(q_world))
+    world_rot = quat.mul(quat.mul(q_world, all_rot), quat.conj(q_world))  # every frame, the character's axes
+    if rest_stands(rest, mapping.up, down=leg, up=spine):
+        cal = _Calibration(np.tile([1.0, 0.0, 0.0, 0.0], (len(bvh.joints), 1)), rest @ to_world.T,
+                           np.array([1.0, 0.0, 0.0, 0.0]), {"calibration": "rest pose"})
+    else:
+        cal = _frame_calibration(bvh, mapping, all_pos @ to_world.T, world_rot, joint_of, bones, rest_xpos, body_id)
+    src_in_world = world_rot[first:last + 1]
     desired: dict[int, np.ndarray] = {}
     bone_of = {body: (child, jb, jc) for body, child, jb, jc in bones}
     for b, bid in body_id.items():
@@ -278,14 +282,13 @@ def import_bvh(bvh: Bvh, character: Character, mapping: Mapping, *, start: float
     return Imported(clip, report)
 
 
-def _rest_stands(bvh: Bvh, mapping: Mapping, down: list[tuple[int, int]], up: list[tuple[int, int]]) -> bool:
-    """Whether the rest pose (every channel zero) stands along the mapping's up axis: the bones
-    (joint index pairs) of `down` (a leg) point down and those of `up` (the spine) up, within 37
+def rest_stands(rest: np.ndarray, axis: np.ndarray, *, down: list[tuple[int, int]],
+                up: list[tuple[int, int]]) -> bool:
+    """Whether a rest pose (joint positions, every channel zero) stands along `axis`: the bones
+    (joint index pairs) of `down` (legs) point down it and those of `up` (the spine) up, within 37
     degrees."""
-    rest = bvh.rest_positions()
-
     def along(pairs: list[tuple[int, int]], sign: float) -> bool:
-        return all(sign * float((rest[c] - rest[p]) @ mapping.up) >= 0.8 * float(np.linalg.norm(rest[c] - rest[p]))
+        return all(sign * float((rest[c] - rest[p]) @ axis) >= 0.8 * float(np.linalg.norm(rest[c] - rest[p]))
                    for p, c in pairs)
 
     return along(down, -1.0) and along(up, 1.0)
@@ -293,25 +296,21 @@ def _rest_stands(bvh: Bvh, mapping: Mapping, down: list[tuple[int, int]], up: li
 
 @dataclasses.dataclass(frozen=True)
 class _Calibration:
-    """The source posture that the character's rest pose is matched with."""
+    """The source posture that the character's rest pose is matched with: the file's rest pose
+    where it stands, else a frame of the recording (`_frame_calibration`)."""
     rot: np.ndarray  # (J, 4) the source joints' world rotations there, in the character's axes
     pos: np.ndarray  # (J, 3) their positions
     heading: np.ndarray  # (4,) the turn about up from the character's rest facing to the source's
     report: dict
 
 
-def _calibration(bvh: Bvh, mapping: Mapping, to_world: np.ndarray, q_world: np.ndarray, pos: np.ndarray,
-                 rot: np.ndarray, joint_of: dict[str, int], leg: list[tuple[int, int]], spine: list[tuple[int, int]],
-                 bones: list[tuple[int, int, int, int]], rest_xpos: np.ndarray,
-                 body_id: dict[str, int]) -> _Calibration:
-    """The file's rest pose where it stands. Where it does not (LAFAN1's bones all lie along x at
-    rest, each joint's frame its own), the recording's frame whose bones point most nearly as the
-    character's do at rest, turned to face as the source does there."""
-    if _rest_stands(bvh, mapping, leg, spine):
-        identity = np.tile([1.0, 0.0, 0.0, 0.0], (len(bvh.joints), 1))
-        return _Calibration(identity, bvh.rest_positions() @ to_world.T, np.array([1.0, 0.0, 0.0, 0.0]),
-                            {"calibration": "rest pose"})
-    pos = pos @ to_world.T
+def _frame_calibration(bvh: Bvh, mapping: Mapping, pos: np.ndarray, rot: np.ndarray, joint_of: dict[str, int],
+                       bones: list[tuple[int, int, int, int]], rest_xpos: np.ndarray,
+                       body_id: dict[str, int]) -> _Calibration:
+    """For a rest pose that does not stand (LAFAN1's bones all lie along x at rest, each joint's
+    frame its own): the recording's frame (`pos`, `rot`: every frame's joints in the character's
+    axes) whose bones point most nearly as the character's do at rest, turned to face as the
+    source does there."""
     right, left = mapping.root_anchor[0], mapping.root_anchor[-1]
     target_side = rest_xpos[body_id[left]] - rest_xpos[body_id[right]]
     source_side = pos[:, joint_of[left]] - pos[:, joint_of[right]]
@@ -326,8 +325,7 @@ def _calibration(bvh: Bvh, mapping: Mapping, to_world: np.ndarray, q_world: np.n
         np.linalg.norm(turned, axis=-1) * np.linalg.norm(source, axis=-1), 1e-12)
     error = np.mean(np.arccos(np.clip(cos, -1.0, 1.0)), axis=1)  # (F,)
     f = int(np.argmin(error))
-    world_rot = quat.mul(quat.mul(q_world, rot[f]), quat.conj(q_world))
-    return _Calibration(world_rot, pos[f], heading[f], {"calibration": {
+    return _Calibration(rot[f], pos[f], heading[f], {"calibration": {
         "frame": f, "time_s": f * bvh.frame_time, "bone_angle_rad": float(error[f])}})
 
 

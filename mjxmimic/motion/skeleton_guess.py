@@ -16,7 +16,7 @@ import re
 import numpy as np
 
 from mjxmimic.motion.bvh import Bvh
-from mjxmimic.motion.bvh_import import Mapping
+from mjxmimic.motion.bvh_import import Mapping, rest_stands
 
 CHARACTER = "humanoid"
 SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
@@ -112,11 +112,12 @@ def _axes(bvh: Bvh, bodies: dict[str, int]) -> tuple[np.ndarray, np.ndarray]:
     sets how each bone turns), else from the motion (up from the hips to the head on average; the
     facing then only turns the whole clip)."""
     rest = bvh.rest_positions()
+    legs = [(bodies[f"{s}_{a}"], bodies[f"{s}_{b}"]) for s in ("left", "right")
+            for a, b in (("hip", "knee"), ("knee", "ankle"))]
     try:
         up = _snap(rest[bodies["neck"]] - rest[bodies["root"]], "")
         left = _snap(rest[bodies["left_hip"]] - rest[bodies["right_hip"]], "")
-        legs = [(f"{s}_{a}", f"{s}_{b}") for s in ("left", "right") for a, b in (("hip", "knee"), ("knee", "ankle"))]
-        if abs(float(up @ left)) == 0 and all(_snap(rest[bodies[b]] - rest[bodies[a]], "") @ up == -1 for a, b in legs):
+        if abs(float(up @ left)) == 0 and rest_stands(rest, up, down=legs, up=[]):
             return up, np.cross(left, up)
     except NoGuess:
         pass

@@ -58,7 +58,8 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     u = sequence(DIRECTION, event_seed, k)
     if env.push_directions == "table6":  # forward half the time, else to the left or to the right
         turn = xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
-        force = force * xp.where(u < 0.5, 1.0, env.push_sideways_scale)
+        if env.push_sideways_scale != 1.0:  # a config constant: no work in the step when unscaled
+            force = force * xp.where(u < 0.5, 1.0, env.push_sideways_scale)
         return push_protocol.wrench(qpos, force, turn, active, nbody, xp)
     return push_protocol.root_force(2.0 * xp.pi * u, force, active, nbody, xp)
 
