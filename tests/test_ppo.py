@@ -289,3 +289,19 @@ def test_the_push_curriculum_ramps_with_the_samples_trained():
     assert logged == seen == [0.0, 0.5, 1.0, 1.0]
     plain = make_trainer(StandInEnv(), make_config("cpu"))
     assert "curriculum/push_scale" not in plain.train_step(plain.init(0))[1]
+
+
+@pytest.mark.parametrize("keys, expected", [
+    ({"env.push_start_samples": 1024}, [0.0, 0.0, 1.0, 1.0]),  # no ramp: full pushes from the start sample on
+    ({"env.push_start_samples": 512, "env.push_ramp_samples": 1024}, [0.0, 0.0, 0.5, 1.0]),
+])
+def test_pushes_can_start_late(keys, expected):
+    """env.push_start_samples: no pushes before it; the ramp, if any, starts there."""
+    config = make_config("cpu", {"env.events": "push", **keys})  # 512 samples an iteration
+    trainer = make_trainer(_SeesPushScale(), config)
+    ts = trainer.init(0)
+    seen = []
+    for _ in range(4):
+        ts, metrics = trainer.train_step(ts)
+        seen.append(float(metrics["seen_scale"]))
+    assert seen == expected

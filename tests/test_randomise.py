@@ -32,6 +32,8 @@ RANDOMISED = {"env.friction_range": "0.3,0.6", "env.mass_range": "0.5,2.0"}
     ("env.mass_range", "heavy", "env.mass_range", "not a valid tuple"),
     ("env.push_ramp_samples", -1, "env.push_ramp_samples", "must be >= 0"),
     ("env.push_ramp_samples", 1000, "env.push_ramp_samples", "set env.events=push too"),
+    ("env.push_start_samples", -1, "env.push_start_samples", "must be >= 0"),
+    ("env.push_start_samples", 1000, "env.push_start_samples", "set env.events=push too"),
     ("env.reset_noise_rad", -0.1, "env.reset_noise_rad", "must be >= 0"),
     ("env.reset_velocity_range", "0.5,0.2", "env.reset_velocity_range", "0 <= lo <= hi"),
     ("env.reset_velocity_range", "-0.1,1", "env.reset_velocity_range", "0 <= lo <= hi"),
@@ -353,6 +355,7 @@ def test_training_perturbations_stay_out_of_evaluation(tmp_path, monkeypatch):
     graded = evaluation_config(config)
     assert (graded.env.events, graded.env.friction_range, graded.env.mass_range) == ("", (1.0, 1.0), (1.0, 1.0))
     assert evaluation_config(apply_overrides(config, {"env.push_ramp_samples": 1000})) == graded
+    assert evaluation_config(apply_overrides(config, {"env.push_start_samples": 1000})) == graded
     assert graded.env.reset_noise_rad == 0.0
     assert graded.ppo == config.ppo and graded.env.control_hz == config.env.control_hz
     assert evaluation_config(graded) == graded

@@ -77,6 +77,9 @@ class EnvConfig:
     # > 0: a curriculum: every push's force is scaled by (training samples so far) / this, up to 1,
     # so that a policy learns the clip before the largest pushes come; 0: full force from the start
     push_ramp_samples: int = 0
+    # > 0: no pushes before this many training samples (the ramp, if any, starts here), so that a
+    # policy first learns the clip as one trained without pushes does, then to withstand pushes
+    push_start_samples: int = 0
     # Domain randomisation (mjxmimic.physics.randomise), per episode; (1, 1) = off. Factors (lo,
     # hi): one for every geom's sliding friction, one per body for its mass and inertia.
     friction_range: tuple[float, ...] = (1.0, 1.0)
@@ -333,11 +336,16 @@ def _pushes(env: EnvConfig) -> bool:
     return "push" in names_in(env.events)
 
 
+def push_curriculum(env: EnvConfig) -> bool:
+    """Whether the trainer scales the pushes by training progress (a ramp, a late start or both)."""
+    return env.push_ramp_samples > 0 or env.push_start_samples > 0
+
+
 def evaluation_config(config: Config) -> Config:
     """The conditions that evaluation, push tests and playback measure in (EVALUATION.md): the
     run's settings without what only perturbs training (episode events such as pushes, domain
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
-    return apply_overrides(config, {"env.events": "", "env.push_ramp_samples": 0,
+    return apply_overrides(config, {"env.events": "", "env.push_ramp_samples": 0, "env.push_start_samples": 0,
                                     "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
                                     "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0),
                                     "env.start_states_fraction": 0.0, "env.skill_switch_s": 0.0})
@@ -378,6 +386,9 @@ def validate(config: Config) -> None:
         (env.push_ramp_samples >= 0, "env.push_ramp_samples", "must be >= 0 (0: no curriculum)"),
         (env.push_ramp_samples == 0 or _pushes(env), "env.push_ramp_samples",
          "ramps pushes: set env.events=push too"),
+        (env.push_start_samples >= 0, "env.push_start_samples", "must be >= 0 (0: pushes from the start)"),
+        (env.push_start_samples == 0 or _pushes(env), "env.push_start_samples",
+         "delays pushes: set env.events=push too"),
         (0 <= env.reset_noise_rad < float("inf"), "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
          "must be two factors lo,hi with 0 <= lo <= hi (finite)"),

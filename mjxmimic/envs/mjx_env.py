@@ -16,7 +16,7 @@ from brax.envs.base import Env, State
 
 from mjxmimic.core.character import Character, load_character, resolve_xml
 from mjxmimic.core.compat import patch_all
-from mjxmimic.core.config import Config
+from mjxmimic.core.config import Config, push_curriculum
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics import randomise
@@ -96,7 +96,7 @@ class ImitationEnv(Env):
                                            jax.random.uniform(key))
         zero = jnp.zeros(())
         info = {"rng": rng, "truncation": zero, "failed": zero, "clip_end": zero, **motion._asdict()}
-        if self.config.env.push_ramp_samples > 0:
+        if push_curriculum(self.config.env):
             info[PUSH_SCALE] = jnp.ones(())
         metrics = {k: zero for k in self.metric_keys}
         return State(pipeline_state=data, obs=obs, reward=zero, done=zero, metrics=metrics, info=info)

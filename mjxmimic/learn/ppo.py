@@ -71,7 +71,7 @@ from brax.training.agents.ppo import losses as ppo_losses  # noqa: E402
 from brax.training.agents.ppo import networks as ppo_networks  # noqa: E402
 from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
 
-from mjxmimic.core.config import Config  # noqa: E402
+from mjxmimic.core.config import Config, push_curriculum  # noqa: E402
 from mjxmimic.core.errors import UserError  # noqa: E402
 from mjxmimic.learn.batched_env import BATCH_AXIS, STEP_METRICS, BatchedEnv, PerDeviceEnv  # noqa: E402
 from mjxmimic.task.events import PUSH_SCALE  # noqa: E402
@@ -126,7 +126,8 @@ def schedule_values(config: Config) -> dict[str, np.ndarray]:
     return {"total_samples": np.float32(config.run.total_samples),
             "learning_rate": np.float32(config.ppo.learning_rate),
             "learning_rate_final": np.float32(config.ppo.learning_rate_final),
-            "push_ramp_samples": np.float32(config.env.push_ramp_samples)}
+            "push_ramp_samples": np.float32(config.env.push_ramp_samples),
+            "push_start_samples": np.float32(config.env.push_start_samples)}
 
 
 def learning_rate_at(config: Config, samples: jax.Array, values: dict | None = None) -> jax.Array:
@@ -306,12 +307,14 @@ class Trainer:
         x = jnp.swapaxes(x, 0, 1).reshape((m, b // m) + rest)
         return self._constrain(x, P(None, BATCH_AXIS))
 
-    def _curriculum(self, env_state: Any, samples: jax.Array, ramp: jax.Array) -> tuple[Any, dict]:
-        """The env states with this iteration's push curriculum factor (env.push_ramp_samples:
-        samples so far over the ramp, up to 1), and the factor as a metric; unchanged without it."""
-        if self.config.env.push_ramp_samples <= 0:
+    def _curriculum(self, env_state: Any, samples: jax.Array, values: dict) -> tuple[Any, dict]:
+        """The env states with this iteration's push curriculum factor (0 before
+        env.push_start_samples, then rising over env.push_ramp_samples to 1, at once without a
+        ramp), and the factor as a metric; unchanged without a curriculum."""
+        if not push_curriculum(self.config.env):
             return env_state, {}
-        scale = jnp.minimum(samples / ramp, 1.0)
+        ramp, late = values["push_ramp_samples"], samples - values["push_start_samples"]
+        scale = jnp.where(ramp > 0, jnp.clip(late / jnp.maximum(ramp, 1.0), 0.0, 1.0), (late >= 0).astype(jnp.float32))
         info = dict(env_state.info, **{PUSH_SCALE: jnp.full_like(env_state.info[PUSH_SCALE], scale)})
         return env_state.replace(info=info), {"curriculum/push_scale": scale}
 
@@ -319,7 +322,7 @@ class Trainer:
         cfg = self.config.ppo
         key, k_unroll, k_sgd = jax.random.split(ts.key, 3)
         samples = ts.env_steps.hi.astype(jnp.float32) * 2.0**32 + ts.env_steps.lo.astype(jnp.float32)
-        env_state, curriculum = self._curriculum(ts.env_state, samples, values["push_ramp_samples"])
+        env_state, curriculum = self._curriculum(ts.env_state, samples, values)
         policy = ppo_networks.make_inference_fn(self.networks)((ts.normalizer, ts.params.policy),
                                                                deterministic=False)
         policy = in_precision(policy, cfg.matmul_precision)
