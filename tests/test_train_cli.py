@@ -322,6 +322,27 @@ def test_a_sweep_training_stops_with_a_checkpoint_when_its_parent_dies(tmp_path,
         assert out.reason == "done" and iterations == list(range(1, 11))
 
 
+def test_a_call_that_stops_before_the_evaluator_compiled_waits_for_it(tmp_path, monkeypatch):
+    """The evaluator compiles in a thread of its own (off warp): a call stopped by run.max_seconds
+    before that finished waits for it, as a compile cut off by the interpreter's exit aborts the
+    process (exit 134 after a clean stop)."""
+    import threading
+    import time
+
+    from mjxmimic.runs.evaluate import Evaluator
+
+    compile_evaluator = Evaluator.compile
+
+    def slow_compile(self, *args):
+        time.sleep(8.0)
+        return compile_evaluator(self, *args)
+
+    monkeypatch.setattr(Evaluator, "compile", slow_compile)
+    out = train(_standin_config(max_seconds=0.01, eval_at_start=False), tmp_path / "run", env=StandInEnv(), progress=False)
+    assert out.reason == "max_seconds" and out.exit_code == 0
+    assert not any(t.name == "mjxmimic-compile" and t.is_alive() for t in threading.enumerate())
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_ctrl_c_or_sigterm_saves_a_checkpoint_and_exits(tmp_path, sig, code):
     """Ctrl-C, and SIGTERM (what schedulers and `timeout` send): a checkpoint, then a resume goes on."""

@@ -379,6 +379,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                                                                       if isinstance(v, (int, float))}})
     finally:
         log.close()
+        if eval_compiled is not None:  # a compile thread still running at exit aborts the process
+            eval_compiled.exception()
     if reason == "non_finite":
         raise UserError(f"{run_dir}: training stopped: {non_finite} (the learning rate or the "
                         f"physics diverged); the last good checkpoint, at {last_ckpt_steps:,} samples, is kept")
