@@ -322,6 +322,24 @@ def test_a_sweep_training_stops_with_a_checkpoint_when_its_parent_dies(tmp_path,
         assert out.reason == "done" and iterations == list(range(1, 11))
 
 
+def test_a_call_whose_time_ran_out_while_compiling_says_how_to_go_on(tmp_path, monkeypatch, capsys):
+    """run.max_seconds stays with the run: a call that spent it all compiling would stop again at
+    every --resume, so its last line says to lift it."""
+    from mjxmimic.envs import mjx_env
+    from mjxmimic.runs import train_loop
+
+    def no_iteration(config, run_dir, **kwargs):
+        return train_loop.Outcome(exit_code=0, reason="max_seconds", env_steps=0, iterations=0,
+                                  summary={"samples": 0, "iterations": 0, "train_seconds": 12.0})
+
+    monkeypatch.setattr(mjx_env, "make_env", lambda config: argparse.Namespace(backend="mjx-jax"))
+    monkeypatch.setattr(train_loop, "train", no_iteration)
+    assert cli.main(["train", "--preset", "cpu", "--out", str(tmp_path / "run"), "--set", "run.max_seconds=5"]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "run.max_seconds (5 s) ran out before the first iteration" in line
+    assert line.endswith(f"mjxmimic train --resume {tmp_path / 'run'} --set run.max_seconds=0 (no limit)")
+
+
 def test_a_call_that_stops_before_the_evaluator_compiled_waits_for_it(tmp_path, monkeypatch):
     """The evaluator compiles in a thread of its own (off warp): a call stopped by run.max_seconds
     before that finished waits for it, as a compile cut off by the interpreter's exit aborts the

@@ -144,6 +144,9 @@ def run(args: argparse.Namespace) -> int:
     final = outcome.final_eval
     if final is not None:
         line += "; " + in_words(final, config)
+    elif outcome.reason == "max_seconds" and outcome.call_iterations == 0:  # the resume keeps the bound
+        line += (f"; run.max_seconds ({config.run.max_seconds:g} s) ran out before the first iteration: "
+                 f"continue with: mjxmimic train --resume {run_dir} --set run.max_seconds=0 (no limit)")
     elif outcome.reason == "max_seconds":
         line += f"; continue with: mjxmimic train --resume {run_dir}"
     print(line)

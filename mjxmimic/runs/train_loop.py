@@ -48,6 +48,7 @@ class Outcome:
     iterations: int
     summary: dict
     final_eval: dict | None = None  # what eval.json holds, when this call wrote it
+    call_iterations: int = 0  # iterations this call ran (0: it stopped before its first)
 
 
 class _StopFlag:
@@ -220,6 +221,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     prior_elapsed = float(meta.get("elapsed_seconds", 0.0))
     env_steps = int(meta.get("env_steps", 0))
     iterations = int(meta.get("iterations", 0))
+    iterations_before = iterations
     time_to_skill = meta.get("time_to_skill_s")
     last_eval_steps = int(meta.get("last_eval_steps", 0))
     last_ckpt_steps = env_steps
@@ -385,8 +387,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         raise UserError(f"{run_dir}: training stopped: {non_finite} (the learning rate or the "
                         f"physics diverged); the last good checkpoint, at {last_ckpt_steps:,} samples, is kept")
     exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
-    return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps,
-                   iterations=iterations, summary=out, final_eval=final)
+    return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps, iterations=iterations,
+                   summary=out, final_eval=final, call_iterations=iterations - iterations_before)
 
 
 def _sweep_deadline() -> float | None:
