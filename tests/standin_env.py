@@ -13,6 +13,8 @@ import jax
 import jax.numpy as jnp
 from brax.envs.base import State
 
+from mjxmimic.task.events import PUSH_SCALE
+
 
 class StandInEnv:
     def __init__(self, n: int = 4, clip_duration: float = 2.0, control_dt: float = 1 / 30,
@@ -121,3 +123,18 @@ class StandInEnv:
         merged_info["truncation"] = nxt.info["truncation"]
         obs = jnp.where(done, fresh.obs, nxt.obs)
         return nxt.replace(obs=obs, info=merged_info)
+
+
+class SeesPushScale(StandInEnv):
+    """Keeps the push curriculum's factor in its info through restarts, as the real env does, and
+    reports the factor that each step saw as a metric."""
+
+    def reset_at(self, rng, t, clip=0):
+        state = super().reset_at(rng, t, clip)
+        return state.replace(info=state.info | {PUSH_SCALE: jnp.ones(())},
+                             metrics=state.metrics | {"seen_scale": jnp.zeros(())})
+
+    def step(self, state, action):
+        out = super().step(state, action)
+        return out.replace(info=out.info | {PUSH_SCALE: state.info[PUSH_SCALE]},
+                           metrics=out.metrics | {"seen_scale": state.info[PUSH_SCALE]})

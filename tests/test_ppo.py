@@ -7,15 +7,13 @@ import textwrap
 from pathlib import Path
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from mjxmimic.core.config import make_config
 from mjxmimic.core.errors import UserError
 from mjxmimic.learn.ppo import MIN_STD, export_params, learning_rate_at, make_trainer
-from mjxmimic.task.events import PUSH_SCALE
-from standin_env import StandInEnv
+from standin_env import SeesPushScale, StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = make_config("cpu", {"ppo.init_action_std": 0.3})
@@ -195,7 +193,7 @@ def test_two_devices_shard_the_batch_and_all_reduce():
         from mjxmimic.core.config import make_config
         from mjxmimic.core.errors import UserError
         from mjxmimic.learn.ppo import make_trainer
-        from standin_env import StandInEnv
+        from standin_env import SeesPushScale, StandInEnv
         assert jax.local_device_count() == 2
         try:
             make_trainer(StandInEnv(), make_config("cpu", {"ppo.num_envs": 33, "ppo.num_minibatches": 1}))
@@ -260,26 +258,11 @@ def test_two_devices_step_the_physics_of_their_own_slices_as_one_device_would():
     assert "OK 64" in _on_two_cpu_devices(script, timeout=600)
 
 
-class _SeesPushScale(StandInEnv):
-    """Keeps the push curriculum's factor in its info through restarts, as the real env does, and
-    reports the factor that each step saw as a metric."""
-
-    def reset_at(self, rng, t, clip=0):
-        state = super().reset_at(rng, t, clip)
-        return state.replace(info=state.info | {PUSH_SCALE: jnp.ones(())},
-                             metrics=state.metrics | {"seen_scale": jnp.zeros(())})
-
-    def step(self, state, action):
-        out = super().step(state, action)
-        return out.replace(info=out.info | {PUSH_SCALE: state.info[PUSH_SCALE]},
-                           metrics=out.metrics | {"seen_scale": state.info[PUSH_SCALE]})
-
-
 def test_the_push_curriculum_ramps_with_the_samples_trained():
     """env.push_ramp_samples: each iteration's rollout steps with (samples so far) / ramp, up to 1,
     and logs it; without it the metric is not there."""
     config = make_config("cpu", {"env.events": "push", "env.push_ramp_samples": 1024})  # 512 samples an iteration
-    trainer = make_trainer(_SeesPushScale(), config)
+    trainer = make_trainer(SeesPushScale(), config)
     ts = trainer.init(0)
     logged, seen = [], []
     for _ in range(4):
@@ -298,7 +281,7 @@ def test_the_push_curriculum_ramps_with_the_samples_trained():
 def test_pushes_can_start_late(keys, expected):
     """env.push_start_samples: no pushes before it; the ramp, if any, starts there."""
     config = make_config("cpu", {"env.events": "push", **keys})  # 512 samples an iteration
-    trainer = make_trainer(_SeesPushScale(), config)
+    trainer = make_trainer(SeesPushScale(), config)
     ts = trainer.init(0)
     seen = []
     for _ in range(4):

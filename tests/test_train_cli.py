@@ -23,7 +23,7 @@ from mjxmimic.commands.train import resolve_run
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs.metrics_log import read
 from mjxmimic.runs.train_loop import train
-from standin_env import StandInEnv
+from standin_env import SeesPushScale, StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -458,6 +458,23 @@ def test_the_best_evaluation_keeps_its_checkpoint(tmp_path):
     env = StandInEnv()
     params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, top["step"], best=True)
     assert meta["checkpoint"] == top["step"] and meta["best"]
+
+
+def test_a_push_curriculum_keeps_no_best_before_its_pushes_are_full(tmp_path):
+    """With pushes held back or ramped, the best checkpoint is one trained with the full pushes:
+    a policy from before them scores well without pushes and is not the push-trained one."""
+    from mjxmimic.runs import folder
+
+    run_dir = tmp_path / "run"
+    config = config_lib.apply_overrides(_standin_config(total_samples=5120, eval_every=1024), {
+        "env.events": "push", "env.push_start_samples": 2048, "env.push_ramp_samples": 1024,
+        "ppo.learning_rate": 0.5})  # a rate that wrecks the policy: its first evaluations score best
+    train(config, run_dir, env=SeesPushScale(), env_factory=lambda c: SeesPushScale(), progress=False)
+    evals = [r["step"] for r in read(run_dir) if "eval/nr" in r]
+    assert evals[:3] == [0, 1024, 2048]  # evaluated before the full pushes too
+    nr = {r["step"]: r["eval/nr"] for r in read(run_dir) if "eval/nr" in r}
+    assert max(nr, key=nr.get) < 3072, nr
+    assert folder.read_best(run_dir)["checkpoint"] >= 3072
 
 
 def test_a_task_run_keeps_the_best_of_what_it_trains_for():

@@ -4,7 +4,8 @@ What it writes (names from mjxmimic.runs.folder): the resolved config before the
 a metrics line per iteration and per evaluation; a checkpoint every run.checkpoint_every
 samples, at the end, at run.max_seconds and on Ctrl-C; a checkpoint into RUN/best at every
 evaluation that beats the run's best so far (`best_score`: the NR of its reward form, with a task
-weighed with the task return; recorded in best.json, read back on resume); and at the end (done,
+weighed with the task return; with a push curriculum only once its pushes are full; recorded in
+best.json, read back on resume); and at the end (done,
 or the target NR reached) eval.json: the final NR evaluation with the run's samples, wall-clock,
 steady-state samples/s and time to skill.
 
@@ -243,10 +244,15 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
 
     best = folder.read_best(run_dir) if resume else None
 
+    # a policy still short of the full pushes of its curriculum is not yet the push-trained one
+    best_from = config.env.push_start_samples + config.env.push_ramp_samples
+
     def keep_if_best(result: dict) -> bool:
         """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
         so that best.json never names a checkpoint that is not there); whether it was the best."""
         nonlocal best
+        if env_steps < best_from:
+            return False
         metric, value = best_score(config, result)
         # the recorded best is scored again: a run resumed under other task weights compares alike
         if best is not None and value <= best_score(config, best["eval"])[1]:
