@@ -12,6 +12,10 @@
 #    frame; NR cost 0.054 against the preset's 200 M run, r200, 0.910) from 100 M samples on,
 #    ramped over 50 M (rcL); the same with a push every 4 to 5 s instead of 2 to 3 s (rcL4); and
 #    from 150 M on, ramped over 25 M (rcL150).
+# Ran as: calls A (530 s, with the install; 547 s wall), B (570; stopped by the device's 600 s limit
+# while grading, graded again in C) and C (PACK=policies, 473; 433 s wall) on two H200s; records in
+# experiments/robustness/late/. rcL kept its 100 M checkpoint (before any push) as its best: the
+# loop has kept the best only from the full pushes on since.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
