@@ -75,13 +75,13 @@ grade() {  # grade_NAME
   local run=runs/${1#grade_} left=$(( deadline - $(date +%s) ))
   [ -f "$run/eval.json" ] && [ ! -f "$run/push_cpu.json" ] || return 0
   if [ "$left" -lt "${GRADE_MIN:-150}" ]; then echo "$run: not graded, $left s left in this call"; return; fi
-  timeout "$left" python3 -m mjxmimic.cli eval "$run" --push --checkpoint best > "$run/push_mjx.log" 2>&1
-  XLA_PYTHON_CLIENT_PREALLOCATE=false timeout "$left" python3 -m mjxmimic.cli export "$run" > "$run/export.log" 2>&1 \
+  timeout -k 10 "$left" python3 -m mjxmimic.cli eval "$run" --push --checkpoint best > "$run/push_mjx.log" 2>&1
+  XLA_PYTHON_CLIENT_PREALLOCATE=false timeout -k 10 "$left" python3 -m mjxmimic.cli export "$run" > "$run/export.log" 2>&1 \
     || return
   local test
   for test in play push; do
     local flags=(--json); [ $test = push ] && flags+=(--push --workers "${GRADE_WORKERS:-4}")
-    (timeout $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli play "$run/policy.npz" "${flags[@]}" \
+    (timeout -k 10 $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli play "$run/policy.npz" "${flags[@]}" \
       > "$run/${test}_cpu.json.part" 2> "$run/${test}_cpu.log" && mv "$run/${test}_cpu.json.part" "$run/${test}_cpu.json") &
   done
 }
