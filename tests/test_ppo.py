@@ -193,7 +193,7 @@ def test_two_devices_shard_the_batch_and_all_reduce():
         from mjxmimic.core.config import make_config
         from mjxmimic.core.errors import UserError
         from mjxmimic.learn.ppo import make_trainer
-        from standin_env import SeesPushScale, StandInEnv
+        from standin_env import StandInEnv
         assert jax.local_device_count() == 2
         try:
             make_trainer(StandInEnv(), make_config("cpu", {"ppo.num_envs": 33, "ppo.num_minibatches": 1}))

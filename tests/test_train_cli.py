@@ -356,7 +356,8 @@ def test_a_call_that_stops_before_the_evaluator_compiled_waits_for_it(tmp_path, 
         return compile_evaluator(self, *args)
 
     monkeypatch.setattr(Evaluator, "compile", slow_compile)
-    out = train(_standin_config(max_seconds=0.01, eval_at_start=False), tmp_path / "run", env=StandInEnv(), progress=False)
+    config = _standin_config(max_seconds=0.01, eval_at_start=False)
+    out = train(config, tmp_path / "run", env=StandInEnv(), progress=False)
     assert out.reason == "max_seconds" and out.exit_code == 0
     assert not any(t.name == "mjxmimic-compile" and t.is_alive() for t in threading.enumerate())
 

@@ -314,7 +314,8 @@ class Trainer:
         if not push_curriculum(self.config.env):
             return env_state, {}
         ramp, late = values["push_ramp_samples"], samples - values["push_start_samples"]
-        scale = jnp.where(ramp > 0, jnp.clip(late / jnp.maximum(ramp, 1.0), 0.0, 1.0), (late >= 0).astype(jnp.float32))
+        ramped = jnp.clip(late / jnp.maximum(ramp, 1.0), 0.0, 1.0)
+        scale = jnp.where(ramp > 0, ramped, (late >= 0).astype(jnp.float32))
         info = dict(env_state.info, **{PUSH_SCALE: jnp.full_like(env_state.info[PUSH_SCALE], scale)})
         return env_state.replace(info=info), {"curriculum/push_scale": scale}
 

@@ -11,7 +11,8 @@ scaled by `env.push_sideways_scale`). With `env.push_force_max_n` each
 push's force lies in [push_force_n, push_force_max_n], and with `env.push_interval_jitter_s` it
 starts up to that long after its interval's start, each by a sequence of its own of the same
 kind (`sequence`). With `env.push_ramp_samples` the trainer scales every push by its
-curriculum's factor (`scale`), from 0 at the start of training (or at `env.push_start_samples`) to 1.
+curriculum's factor (`scale`), from 0 at the start of training (or at `env.push_start_samples`)
+to 1.
 """
 
 from __future__ import annotations
