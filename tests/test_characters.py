@@ -86,9 +86,10 @@ def test_clips_cli_with_the_dog(deepmimic_dir, capsys):
     assert cli.main(["clips", "info", "trot", "--character", "dog3d", "--clips-dir", motions, "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["valid"] and info["path"].endswith("dog3d_trot.txt")
-    # the humanoid does not read the dog's clip
+    # the humanoid does not read the dog's clip, and says whose it is
     assert cli.main(["clips", "info", str(deepmimic_dir / "motions" / "dog3d_trot.txt")]) == 2
-    assert "dog3d_trot.txt" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "dog3d_trot.txt" in err and err.strip().endswith("(a clip of dog3d: --character dog3d)")
 
 
 def test_unknown_character_is_one_line(capsys):

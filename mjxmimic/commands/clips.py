@@ -50,6 +50,7 @@ def add_list_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_list(args: argparse.Namespace) -> int:
+    from mjxmimic.core.character import character_for_clip
     from mjxmimic.motion.clip import list_clips, search_folders
 
     clips = list_clips(args.clips_dir, _character(args).clip_prefix)
@@ -61,17 +62,8 @@ def run_list(args: argparse.Namespace) -> int:
     swidth = max(len(label) for _, _, label in clips)
     print(f"{'clip':<{width}}  {'source':<{swidth}}  {'fits':<8}  file")
     for name, path, label in clips:
-        print(f"{name:<{width}}  {label:<{swidth}}  {fits(path):<8}  {path}")
+        print(f"{name:<{width}}  {label:<{swidth}}  {character_for_clip(path):<8}  {path}")
     return 0
-
-
-def fits(path: Path) -> str:
-    """The character a clip is for, by the file-name prefix of the package's characters
-    (dog3d_* move the dog); clips without one, such as the project's own, the humanoid."""
-    from mjxmimic.core.character import character_prefixes
-
-    return next((name for name, prefix in character_prefixes().items() if path.stem.startswith(prefix)),
-                "humanoid")
 
 
 # ------------------------------------------------------------------------------------------ info

@@ -8,6 +8,7 @@ and nowhere else, so no index list is typed twice.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 from pathlib import Path
 
@@ -125,6 +126,7 @@ def character_names() -> list[str]:
     return sorted([p.stem for p in XML_DIR.glob("*.xml")] + [g1_character.NAME])
 
 
+@functools.lru_cache(maxsize=1)
 def character_prefixes() -> dict[str, str]:
     """Each shipped character's clip file-name prefix, by name (those that have one)."""
     out = {g1_character.NAME: g1_character.CLIP_PREFIX}
@@ -133,6 +135,13 @@ def character_prefixes() -> dict[str, str]:
         if _has_text(model, "clip_prefix"):
             out[path.stem] = _custom_text(model, "clip_prefix")
     return dict(sorted(out.items()))
+
+
+def character_for_clip(path: Path, default: str | None = "humanoid") -> str | None:
+    """The character a clip file is for, by the file-name prefix of the shipped characters
+    (dog3d_* move the dog); clips without one, such as the project's own: `default`."""
+    return next((name for name, prefix in character_prefixes().items() if path.stem.startswith(prefix)),
+                default)
 
 
 def resolve_xml(xml: str | Path) -> Path:

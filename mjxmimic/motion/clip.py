@@ -160,6 +160,14 @@ def load_clip(path: str | Path, character: Character) -> Clip:
     return clip_from_json(data, character, path=path, name=_clip_name(path, character.clip_prefix))
 
 
+def _fits_hint(path: Path | None, character: Character) -> str:
+    """For a clip of another shipped character (by its file name): which, and the option to pass."""
+    from mjxmimic.core.character import character_for_clip
+
+    other = character_for_clip(path, default=None) if path is not None else None
+    return "" if other in (None, character.xml_path.stem) else f" (a clip of {other}: --character {other})"
+
+
 def clip_from_json(data: object, character: Character, path: Path | None = None, name: str = "clip") -> Clip:
     """Validate a parsed DeepMimic clip (the JSON value) and convert it; raises ClipError."""
     where = str(path) if path is not None else name
@@ -191,7 +199,7 @@ def clip_from_json(data: object, character: Character, path: Path | None = None,
                 raise fail(f"value {i} is not a number: {json.dumps(v)[:40]}", f)
         if len(frame) != width:
             raise fail(f"expected {width} values per frame for character {character.xml_path.name}, "
-                       f"got {len(frame)}", f)
+                       f"got {len(frame)}{_fits_hint(path, character)}", f)
     raw = np.asarray(frames, dtype=np.float64)
     bad = ~np.isfinite(raw)
     if bad.any():
