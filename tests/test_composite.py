@@ -327,7 +327,9 @@ def test_save_states_errors_are_one_line(still_composite, composite_file, expert
             ([str(still_composite), "--save-states", str(tmp_path / "k.npz")], "needs --knockdowns"),
             ([str(still_composite), "--knockdowns", "1", "--save-states", str(tmp_path / "k.txt")], "ending in .npz"),
             ([str(still_composite), "--knockdowns", "1", "--save-states", str(tmp_path / "no" / "k.npz")], "no folder"),
-            ([str(expert_files["slow_walk"]), "--knockdowns", "1"], "--knockdowns is for composite files")):
+            ([str(expert_files["slow_walk"]), "--knockdowns", "1"], "--knockdowns is for composite files"),
+            ([str(expert_files["slow_walk"]), "--seconds", "-1"], "--seconds is for composite files"),
+            ([str(expert_files["slow_walk"]), "--expert", "walk"], "--expert is for composite files")):
         assert cli.main(["play", *args]) == 2
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1, err

@@ -153,6 +153,8 @@ def test_render_push_knocks_down_and_bad_push_is_one_line(policy_file, tmp_path)
     assert ", fell," in result.stdout and frames["pushed"] < frames["still"] - 5  # knocked down sooner
     result = run_cli("render", policy_file, "--out", tmp_path / "bad.mp4", "--push", "300N")
     assert result.returncode == 2 and "expected FORCE@TIME" in result.stderr
+    late = run_cli("render", policy_file, "--out", tmp_path / "bad.mp4", "--push", "300@5", "--seconds", "2")
+    assert late.returncode == 2 and "--push at 5 s: the video ends at 2 s" in late.stderr
     assert not (tmp_path / "bad.mp4").exists()
 
 

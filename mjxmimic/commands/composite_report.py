@@ -103,8 +103,9 @@ def play(args: argparse.Namespace, c) -> int:
             print(f"  {name:<20} {r['nr_own']:>7.3f} {r['nr_gate']:>8.3f} {r['fall_rate_own']:>9.2f} "
                   f"{r['fall_rate_gate']:>10.2f} {100 * r['kept']:>4.0f}%")
         return 0
-    if args.seconds <= 0:
-        raise UserError(f"--seconds {args.seconds}: must be positive")
+    seconds = 10.0 if args.seconds is None else args.seconds
+    if seconds <= 0:
+        raise UserError(f"--seconds {seconds:g}: must be positive")
     direction = args.push_direction or "forward"
     if direction == "random":
         raise UserError("--push-direction random is for --knockdowns; --push-once takes a fixed direction")
@@ -114,7 +115,7 @@ def play(args: argparse.Namespace, c) -> int:
 
         force, at, _ = parse_push(args.push_once, "forward")
         push = (force, at, DIRECTIONS[direction])
-    out = composite.play(c, args.seconds, args.start, args.expert, push, 0 if args.seed is None else args.seed,
+    out = composite.play(c, seconds, args.start or 0.0, args.expert, push, 0 if args.seed is None else args.seed,
                          args.temperature)
     if args.json:
         print(json.dumps(out))

@@ -67,8 +67,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "lands before the next skill starts (default auto: the cyclic skills whose clip "
                              "lifts both feet 0.2 m off the ground; none: every switch at once)")
     composite = parser.add_argument_group("composite files (mjxmimic compose)")
-    composite.add_argument("--seconds", type=float, default=10.0, help="length of the run (default 10)")
-    composite.add_argument("--start", type=float, default=0.0, help="clip time of the start expert to start at")
+    composite.add_argument("--seconds", type=float, default=None, help="length of the run (default 10)")
+    composite.add_argument("--start", type=float, default=None, help="clip time of the start expert to start at "
+                           "(default 0)")
     composite.add_argument("--expert", metavar="NAME", default=None,
                            help="the expert to start in (default: the first looping one)")
     composite.add_argument("--temperature", type=float, default=None, help="override the file's gate temperature")
@@ -279,7 +280,8 @@ def run(args: argparse.Namespace) -> int:
 
         return composite_report.play(args, composite.read(args.policy))
     for flag, given in (("--knockdowns", args.knockdowns), ("--save-states", args.save_states),
-                        ("--push-once", args.push_once)):
+                        ("--push-once", args.push_once), ("--seconds", args.seconds), ("--start", args.start),
+                        ("--expert", args.expert), ("--temperature", args.temperature), ("--force", args.force)):
         if given is not None:
             raise UserError(f"{flag} is for composite files (mjxmimic compose); {args.policy} is a single policy")
     pf = load_policy_file(args.policy)

@@ -336,6 +336,8 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     else:
         env = CpuEnv(evaluation_config(pf.config()), character, clip if clip is not None else pf.clip())
         limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
+    if push is not None and push[1] >= limit * env.control_dt:
+        raise UserError(f"--push at {push[1]:g} s: the video ends at {limit * env.control_dt:g} s")
     policy = pf.policy()
     throw = env.config.task.name == "throw"  # the camera backs off and follows the midpoint of the
     view = {"distance": 8.0, "elevation": -25.0} if throw else {}  # character and the target, metres away
