@@ -197,3 +197,20 @@ def test_render_stops_at_the_end_of_a_clip_that_does_not_loop(policy_file, chara
     assert result.returncode == 0, result.stderr
     assert "did not fall" in result.stdout
     assert len(read_frames(out)) < 4 * 30 / 2
+
+
+def test_character_given_to_a_policy_command_must_be_the_files(policy_file, tmp_path, capsys):
+    """--character on play, render, eval and export: the file holds the character; another one is
+    refused in one line, the same one passes."""
+    from mjxmimic import cli
+    from mjxmimic.runs.folder import check_character
+
+    check_character("humanoid", policy_file)
+    check_character(None, policy_file)
+    for command in (["play", str(policy_file), "--episodes", "1"], ["render", str(policy_file), "--out",
+                    str(tmp_path / "v.mp4")], ["eval", str(policy_file)]):
+        assert cli.main([*command, "--character", "dog3d"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.endswith("moves humanoid, not dog3d (it holds its character; drop --character)"), err
+        assert len(err.splitlines()) == 1
+    assert not (tmp_path / "v.mp4").exists()

@@ -393,6 +393,9 @@ def test_eval_command_on_a_run(tmp_path, capsys):
     assert result["episodes"] == 4 and result["samples"] == 5120 and result["checkpoint"] == 5120
     assert json.loads((run_dir / "eval_5120.json").read_text())["nr"] == result["nr"]
     assert (run_dir / "eval.json").read_text() == training_eval  # the training's own stays whole
+    assert cli.main(["export", str(run_dir), "--character", "dog3d"]) == 2  # the run moves the humanoid
+    assert "moves humanoid, not dog3d" in capsys.readouterr().err
+    assert not (run_dir / "policy.npz").exists()
 
 
 def test_target_nr_stops_and_records_time_to_skill(tmp_path):

@@ -17,10 +17,13 @@ import json
 import sys
 from pathlib import Path
 
+from mjxmimic.runs import folder
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder, or an exported policy file (on MJX)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
     parser.add_argument("--checkpoint", metavar="best|latest|N",
@@ -66,7 +69,6 @@ _ROWS = [
 
 def _run_push(args: argparse.Namespace) -> int:
     from mjxmimic.core.errors import UserError
-    from mjxmimic.runs import folder
     from mjxmimic.runs.push_eval import push_test_run
 
     if args.trials < 1:
@@ -109,6 +111,7 @@ def _run_composite(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    folder.check_character(args.character, args.run_dir)
     from mjxmimic.portable.composite import is_composite
 
     if is_composite(args.run_dir):

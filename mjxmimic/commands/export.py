@@ -14,6 +14,8 @@ import argparse
 import json
 from pathlib import Path
 
+from mjxmimic.runs import folder
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder")
@@ -21,11 +23,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=("npz", "onnx"), default=None,
                         help="file format (default: from --out's suffix, else npz)")
     parser.add_argument("--json", action="store_true", help="print the manifest as JSON")
+    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
     parser.add_argument("--checkpoint", default="best", metavar="best|latest|N",
                         help="which checkpoint: the best evaluation's (default), the latest, or N samples")
 
 
 def run(args: argparse.Namespace) -> int:
+    folder.check_character(args.character, args.run_dir)
     from mjxmimic.core.errors import UserError
     from mjxmimic.runs.export import export_run
 

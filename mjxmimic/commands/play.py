@@ -29,12 +29,15 @@ import sys
 import time
 from pathlib import Path
 
+from mjxmimic.runs import folder
+
 DEFAULT_EPISODES = 16
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("policy", type=Path, metavar="POLICY", help="exported policy file or run folder")
     parser.add_argument("--clip", metavar="NAME|PATH", help="play on another clip (default: the file's own)")
+    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
     parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
     parser.add_argument("--episodes", type=int, default=None, help=f"episodes (default {DEFAULT_EPISODES})")
     parser.add_argument("--seed", type=int, default=None,
@@ -252,6 +255,7 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    folder.check_character(args.character, args.policy)
     from mjxmimic.core.errors import UserError
 
     if args.workers is not None and args.workers < 1:
@@ -273,7 +277,6 @@ def run(args: argparse.Namespace) -> int:
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import composite
     from mjxmimic.portable.playback import evaluate
-    from mjxmimic.runs.folder import load_policy_file
 
     if composite.is_composite(args.policy):
         from mjxmimic.commands import composite_report
@@ -284,7 +287,7 @@ def run(args: argparse.Namespace) -> int:
                         ("--expert", args.expert), ("--temperature", args.temperature), ("--force", args.force)):
         if given is not None:
             raise UserError(f"{flag} is for composite files (mjxmimic compose); {args.policy} is a single policy")
-    pf = load_policy_file(args.policy)
+    pf = folder.load_policy_file(args.policy)
     character = pf.character()
     clips = pf.clips()
     names = [c.name for c in clips]

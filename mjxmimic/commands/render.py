@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from mjxmimic.runs import folder
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("source", type=Path, metavar="RUN|POLICY", help="run folder or exported policy file")
@@ -26,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=False,
                         help="show the reference motion as a translucent ghost")
     parser.add_argument("--clip", metavar="NAME|PATH", help="another clip (default: the policy's own)")
+    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
     parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
     parser.add_argument("--start", type=float, default=0.0, help="clip time of the first frame (s)")
     parser.add_argument("--seconds", type=float, default=None,
@@ -84,9 +87,9 @@ def _render_composite(args: argparse.Namespace, c, push) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    folder.check_character(args.character, args.source)
     from mjxmimic.core.errors import UserError
     from mjxmimic.portable.render import check_video_path, render_policy, setup_gl
-    from mjxmimic.runs.folder import load_policy_file
 
     _check_size(args.width, args.height)
     push = None if args.push is None else parse_push(args.push, args.push_direction)
@@ -98,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
 
     if composite.is_composite(args.source):
         return _render_composite(args, composite.read(args.source), push)
-    pf = load_policy_file(args.source, export_if_missing=True, checkpoint=args.checkpoint)
+    pf = folder.load_policy_file(args.source, export_if_missing=True, checkpoint=args.checkpoint)
     clip = None
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source
