@@ -340,7 +340,7 @@ def test_a_call_whose_time_ran_out_while_compiling_says_how_to_go_on(tmp_path, m
     assert line.endswith(f"mjxmimic train --resume {tmp_path / 'run'} --set run.max_seconds=0 (no limit)")
 
 
-def test_a_call_that_stops_before_the_evaluator_compiled_waits_for_it(tmp_path, monkeypatch):
+def test_a_call_that_stops_or_fails_before_the_evaluator_compiled_waits_for_it(tmp_path, monkeypatch):
     """The evaluator compiles in a thread of its own (off warp): a call stopped by run.max_seconds
     before that finished waits for it, as a compile cut off by the interpreter's exit aborts the
     process (exit 134 after a clean stop)."""
@@ -359,6 +359,18 @@ def test_a_call_that_stops_before_the_evaluator_compiled_waits_for_it(tmp_path, 
     config = _standin_config(max_seconds=0.01, eval_at_start=False)
     out = train(config, tmp_path / "run", env=StandInEnv(), progress=False)
     assert out.reason == "max_seconds" and out.exit_code == 0
+    assert not any(t.name == "mjxmimic-compile" and t.is_alive() for t in threading.enumerate())
+
+    # so does one that fails meanwhile (here: W&B cannot start), before it reports the error
+    from mjxmimic.runs import wandb_log
+
+    def no_login(*args):
+        raise UserError("W&B: no API key")
+
+    monkeypatch.setattr(wandb_log, "WandbRun", no_login)
+    with pytest.raises(UserError, match="no API key"):
+        train(config_lib.apply_overrides(config, {"run.wandb_project": "p"}), tmp_path / "run2",
+              env=StandInEnv(), progress=False)
     assert not any(t.name == "mjxmimic-compile" and t.is_alive() for t in threading.enumerate())
 
 

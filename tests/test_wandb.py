@@ -1,5 +1,6 @@
 """Weights & Biases tracking (mjxmimic.runs.wandb_log) in W&B's offline mode: no network, no account."""
 
+import io
 import json
 import sys
 
@@ -99,4 +100,20 @@ def test_without_the_package_it_is_one_line(tmp_path, monkeypatch, capsys):
     assert cli.main(["train", "--preset", "cpu", "--wandb", "proj", "--out", str(run_dir)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.splitlines()[-1].endswith("--wandb needs the 'wandb' package: pip install -e \".[wandb]\"")
+    assert not run_dir.exists()
+
+
+def test_without_a_login_it_is_one_line_before_anything_runs(tmp_path, monkeypatch, capsys):
+    """Online mode with no API key (none in the environment or ~/.netrc) and no terminal: one line
+    that says how, before the run folder is made (W&B's own traceback came after compilation)."""
+    for name in ("WANDB_MODE", "WANDB_API_KEY"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setenv("NETRC", str(tmp_path / "none"))
+    monkeypatch.setattr(sys, "stdin", io.StringIO())  # no terminal to ask for a key on
+    wandb.teardown()  # the offline settings of the tests before stay in W&B's process-wide singleton
+    run_dir = tmp_path / "run"
+    assert cli.main(["train", "--preset", "cpu", "--wandb", "proj", "--out", str(run_dir)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("mjxmimic train: error: W&B: ") and "WANDB_MODE=offline" in err
     assert not run_dir.exists()

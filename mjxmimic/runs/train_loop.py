@@ -135,12 +135,17 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
         if resume and (done := _finished(run_dir, config)) is not None:
             return done
         try:
-            return _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
-                          progress=progress, on_iteration=on_iteration, deadline=deadline)
+            outcome = _train(config, run_dir, resume=resume, env=env, env_factory=env_factory,
+                             start_time=start_time, progress=progress, on_iteration=on_iteration, deadline=deadline)
+        except KeyboardInterrupt:  # a second Ctrl-C: at once
+            raise
         except Exception as err:  # wherever it strikes: a checkpoint, an evaluation's best, a log row
+            _wait_for_compilations()
             if not _disk_full(err):
                 raise
             raise _disk_full_error(run_dir, err) from None
+        _wait_for_compilations()
+        return outcome
 
 
 def _finished(run_dir: Path, config: config_lib.Config) -> Outcome | None:
@@ -387,8 +392,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
                                                                       if isinstance(v, (int, float))}})
     finally:
         log.close()
-        if eval_compiled is not None:  # a compile thread still running at exit aborts the process
-            eval_compiled.exception()
     if reason == "non_finite":
         raise UserError(f"{run_dir}: training stopped: {non_finite} (the learning rate or the "
                         f"physics diverged); the last good checkpoint, at {last_ckpt_steps:,} samples, is kept")
@@ -407,10 +410,14 @@ def _sweep_deadline() -> float | None:
         raise UserError(f"{folder.SWEEP_DEADLINE}={value!r}: not a time in seconds") from None
 
 
+_COMPILING: list[Future] = []  # what _in_background started
+
+
 def _in_background(fn: Callable, *args: Any) -> Future:
-    """fn(*args) in a daemon thread (XLA compiles without the GIL): a run that stops with an
-    error does not wait for a compilation nobody needs any more."""
+    """fn(*args) in a daemon thread (XLA compiles without the GIL), so that Ctrl-C during a
+    compilation stops the command at once."""
     future: Future = Future()
+    _COMPILING.append(future)
 
     def work() -> None:
         try:
@@ -420,6 +427,13 @@ def _in_background(fn: Callable, *args: Any) -> Future:
 
     threading.Thread(target=work, name="mjxmimic-compile", daemon=True).start()
     return future
+
+
+def _wait_for_compilations() -> None:
+    """Let the compilations still running finish: a daemon thread that the interpreter's exit cuts
+    off inside XLA aborts the process (exit 134 after a clean stop or a one-line error)."""
+    while _COMPILING:
+        _COMPILING.pop().exception()
 
 
 def _disk_full(err: BaseException) -> bool:

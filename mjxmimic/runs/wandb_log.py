@@ -11,6 +11,7 @@ variables (WANDB_ENTITY, WANDB_MODE=offline for a machine without network, WANDB
 from __future__ import annotations
 
 import json
+import os
 import secrets
 import sys
 from pathlib import Path
@@ -32,8 +33,16 @@ def _wandb():
 
 
 def check_available() -> None:
-    """Fail before any training when the package is missing."""
-    _wandb()
+    """Fail before any training, in one line, when the package is missing or W&B has no way to log
+    in (no API key and no terminal to ask for one, outside WANDB_MODE=offline or disabled)."""
+    wandb = _wandb()
+    if os.environ.get("WANDB_MODE", "").lower() in ("offline", "disabled", "dryrun"):
+        return
+    try:
+        wandb.login(verify=False)
+    except wandb.errors.Error as err:
+        raise UserError(f"W&B: {str(err).strip().splitlines()[0]} (or set WANDB_MODE=offline to keep the "
+                        "W&B run on this machine)") from None
 
 
 class WandbRun:
@@ -48,8 +57,11 @@ class WandbRun:
         else:
             run_id = secrets.token_hex(6)
             id_path.write_text(json.dumps({"id": run_id, "project": config.run.wandb_project}) + "\n")
-        self.run = self.wandb.init(project=config.run.wandb_project, name=self.run_dir.name, id=run_id,
-                                   resume="allow", dir=str(self.run_dir), config=config_lib.to_dict(config))
+        try:
+            self.run = self.wandb.init(project=config.run.wandb_project, name=self.run_dir.name, id=run_id,
+                                       resume="allow", dir=str(self.run_dir), config=config_lib.to_dict(config))
+        except self.wandb.errors.Error as err:  # no network, a project it may not write to, ...
+            raise UserError(f"W&B: {str(err).strip().splitlines()[0]}") from None
         self.videos = config.run.wandb_videos
         self._video_note = None
 
