@@ -408,6 +408,20 @@ def test_import_command_errors(walk_file, tmp_path, capsys, args, message):
     assert not out.exists() and not list(tmp_path.glob("*.tmp"))
 
 
+@pytest.mark.parametrize("command", [["import", "BVH"], ["retarget", "slow_walk", "--to", "humanoid"]])
+def test_clip_out_is_checked_before_the_work(walk_file, tmp_path, capsys, command):
+    """--out naming a folder, or a file in none: one line before anything is read or written (a
+    folder gave a traceback and left FOLDER.tmp beside it)."""
+    args = [str(walk_file) if a == "BVH" else a for a in command]
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    for out, message in ((folder, "is a folder; give the clip file's name"), (tmp_path / "no" / "c.txt", "no folder")):
+        assert cli.main(["clips", *args, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and "\n" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clips"] and not list(folder.iterdir())
+
+
 def test_real_cmu_recordings(tmp_path):
     """The CMU files in ../shared/bvh (skipped without them): both import onto the humanoid."""
     from conftest import REPO

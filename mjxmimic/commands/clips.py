@@ -242,6 +242,7 @@ def run_import(args: argparse.Namespace) -> int:
     from mjxmimic.motion.clip import format_clip
     from mjxmimic.motion.retarget import find_map, retarget
 
+    out = _check_out(Path(args.out))
     character = _character(args)
     name = Path(character.xml_path).stem
     via = None
@@ -257,7 +258,6 @@ def run_import(args: argparse.Namespace) -> int:
     first = via or character
     first_name = Path(first.xml_path).stem
     mapping = load_mapping(Path(args.mapping), first_name) if args.mapping else find_mapping(bvh, first_name)
-    out = Path(args.out)
     result = import_bvh(bvh, first, mapping, start=args.start, end=args.end, fps=args.fps,
                         loop=args.loop == "wrap", name=out.stem)
     imported = {"clip": str(out), "source": str(args.file), **result.report}
@@ -297,13 +297,21 @@ def run_import(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_out(out: Path) -> Path:
+    """--out of a clip to write: a file name in a folder that exists (checked before the work)."""
+    if out.is_dir():
+        raise UserError(f"--out {out}: is a folder; give the clip file's name")
+    if not out.parent.is_dir():
+        raise UserError(f"--out {out}: no folder {out.parent}")
+    return out
+
+
 def _write_clip(text: str, out: Path, character: Character) -> None:
     """Write a made clip only once it reads back as one, and atomically."""
     from mjxmimic.motion.clip import clip_from_json
 
     clip_from_json(json.loads(text), character, out, out.stem)
-    if not out.parent.is_dir():
-        raise UserError(f"--out {out}: no folder {out.parent}")
+    _check_out(out)
     tmp = out.with_name(out.name + ".tmp")
     tmp.write_text(text)
     tmp.replace(out)
@@ -340,6 +348,7 @@ def run_retarget(args: argparse.Namespace) -> int:
     from mjxmimic.motion.clip import format_clip, load_clip_source
     from mjxmimic.motion.retarget import find_map, load_map, matching, retarget
 
+    out = _check_out(Path(args.out))
     source = _character(args)
     target = load_character(resolve_xml(args.to))
     clip = load_clip_source(args.clip, source, args.clips_dir)
@@ -348,7 +357,6 @@ def run_retarget(args: argparse.Namespace) -> int:
         mapping = load_map(Path(args.map))
     elif not matching(source, target):
         mapping = find_map(source.xml_path.stem, target.xml_path.stem)
-    out = Path(args.out)
     result = retarget(clip, source, target, mapping)
     report = {"clip": str(out), "source": args.clip, "from": source.xml_path.stem, "to": target.xml_path.stem,
               **result.report}
