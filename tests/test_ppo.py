@@ -91,14 +91,20 @@ def test_learning_rate_schedule(schedule, middle):
         make_config("cpu", {"ppo.learning_rate_schedule": "step"})
 
 
+def _metrics_of_steps(trainer, steps: int, *keys: str) -> list[list[float]]:
+    """Each key's metric over `steps` train steps from a fresh init."""
+    ts = trainer.init(0)
+    rows = []
+    for _ in range(steps):
+        ts, metrics = trainer.train_step(ts)
+        rows.append([float(metrics[k]) for k in keys])
+    return [list(column) for column in zip(*rows)]
+
+
 def test_train_step_follows_the_schedule():
     config = make_config("cpu", {"ppo.learning_rate_schedule": "linear", "run.total_samples": 1024})
     trainer = make_trainer(StandInEnv(), config)
-    ts = trainer.init(0)
-    rates = []
-    for _ in range(3):
-        ts, metrics = trainer.train_step(ts)
-        rates.append(float(metrics["ppo/learning_rate"]))
+    rates, = _metrics_of_steps(trainer, 3, "ppo/learning_rate")
     assert rates == pytest.approx([1e-3, 1e-3 - 0.5 * (1e-3 - 3e-5), 3e-5], rel=1e-5)  # 512 samples per step
     assert trainer.train_step._cache_size() == 1
 
@@ -262,13 +268,7 @@ def test_the_push_curriculum_ramps_with_the_samples_trained():
     """env.push_ramp_samples: each iteration's rollout steps with (samples so far) / ramp, up to 1,
     and logs it; without it the metric is not there."""
     config = make_config("cpu", {"env.events": "push", "env.push_ramp_samples": 1024})  # 512 samples an iteration
-    trainer = make_trainer(SeesPushScale(), config)
-    ts = trainer.init(0)
-    logged, seen = [], []
-    for _ in range(4):
-        ts, metrics = trainer.train_step(ts)
-        logged.append(float(metrics["curriculum/push_scale"]))
-        seen.append(float(metrics["seen_scale"]))
+    logged, seen = _metrics_of_steps(make_trainer(SeesPushScale(), config), 4, "curriculum/push_scale", "seen_scale")
     assert logged == seen == [0.0, 0.5, 1.0, 1.0]
     plain = make_trainer(StandInEnv(), make_config("cpu"))
     assert "curriculum/push_scale" not in plain.train_step(plain.init(0))[1]
@@ -281,10 +281,5 @@ def test_the_push_curriculum_ramps_with_the_samples_trained():
 def test_pushes_can_start_late(keys, expected):
     """env.push_start_samples: no pushes before it; the ramp, if any, starts there."""
     config = make_config("cpu", {"env.events": "push", **keys})  # 512 samples an iteration
-    trainer = make_trainer(SeesPushScale(), config)
-    ts = trainer.init(0)
-    seen = []
-    for _ in range(4):
-        ts, metrics = trainer.train_step(ts)
-        seen.append(float(metrics["seen_scale"]))
+    seen, = _metrics_of_steps(make_trainer(SeesPushScale(), config), 4, "seen_scale")
     assert seen == expected

@@ -203,7 +203,7 @@ def test_character_given_to_a_policy_command_must_be_the_files(policy_file, tmp_
     """--character on play, render, eval and export: the file holds the character; another one is
     refused in one line, the same one passes."""
     from mjxmimic import cli
-    from mjxmimic.runs.folder import check_character
+    from mjxmimic.commands.character_option import check as check_character
 
     check_character("humanoid", policy_file)
     check_character(None, policy_file)

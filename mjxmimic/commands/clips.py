@@ -311,8 +311,7 @@ def _write_clip(text: str, out: Path, character: Character) -> None:
     from mjxmimic.motion.clip import clip_from_json
 
     clip_from_json(json.loads(text), character, out, out.stem)
-    _check_out(out)
-    tmp = out.with_name(out.name + ".tmp")
+    tmp = out.with_name(out.name + ".tmp")  # (out checked by the caller, before the work)
     tmp.write_text(text)
     tmp.replace(out)
 

@@ -17,13 +17,14 @@ import json
 import sys
 from pathlib import Path
 
+from mjxmimic.commands import character_option
 from mjxmimic.runs import folder
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder, or an exported policy file (on MJX)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
-    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
+    character_option.add_option(parser)
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=int, help="seed of the start times (default: run.seed + 1, as in training)")
     parser.add_argument("--checkpoint", metavar="best|latest|N",
@@ -111,7 +112,7 @@ def _run_composite(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    folder.check_character(args.character, args.run_dir)
+    character_option.check(args.character, args.run_dir)
     from mjxmimic.portable.composite import is_composite
 
     if is_composite(args.run_dir):

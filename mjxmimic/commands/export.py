@@ -14,7 +14,7 @@ import argparse
 import json
 from pathlib import Path
 
-from mjxmimic.runs import folder
+from mjxmimic.commands import character_option
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,13 +23,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=("npz", "onnx"), default=None,
                         help="file format (default: from --out's suffix, else npz)")
     parser.add_argument("--json", action="store_true", help="print the manifest as JSON")
-    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
+    character_option.add_option(parser)
     parser.add_argument("--checkpoint", default="best", metavar="best|latest|N",
                         help="which checkpoint: the best evaluation's (default), the latest, or N samples")
 
 
 def run(args: argparse.Namespace) -> int:
-    folder.check_character(args.character, args.run_dir)
+    character_option.check(args.character, args.run_dir)
     from mjxmimic.core.errors import UserError
     from mjxmimic.runs.export import export_run
 

@@ -29,6 +29,7 @@ import sys
 import time
 from pathlib import Path
 
+from mjxmimic.commands import character_option
 from mjxmimic.runs import folder
 
 DEFAULT_EPISODES = 16
@@ -37,7 +38,7 @@ DEFAULT_EPISODES = 16
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("policy", type=Path, metavar="POLICY", help="exported policy file or run folder")
     parser.add_argument("--clip", metavar="NAME|PATH", help="play on another clip (default: the file's own)")
-    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
+    character_option.add_option(parser)
     parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
     parser.add_argument("--episodes", type=int, default=None, help=f"episodes (default {DEFAULT_EPISODES})")
     parser.add_argument("--seed", type=int, default=None,
@@ -255,7 +256,7 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    folder.check_character(args.character, args.policy)
+    character_option.check(args.character, args.policy)
     from mjxmimic.core.errors import UserError
 
     if args.workers is not None and args.workers < 1:

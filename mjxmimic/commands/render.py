@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from mjxmimic.commands import character_option
 from mjxmimic.runs import folder
 
 
@@ -28,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=False,
                         help="show the reference motion as a translucent ghost")
     parser.add_argument("--clip", metavar="NAME|PATH", help="another clip (default: the policy's own)")
-    parser.add_argument("--character", metavar="NAME|PATH", default=None, help=folder.CHARACTER_HELP)
+    character_option.add_option(parser)
     parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
     parser.add_argument("--start", type=float, default=0.0, help="clip time of the first frame (s)")
     parser.add_argument("--seconds", type=float, default=None,
@@ -87,7 +88,7 @@ def _render_composite(args: argparse.Namespace, c, push) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    folder.check_character(args.character, args.source)
+    character_option.check(args.character, args.source)
     from mjxmimic.core.errors import UserError
     from mjxmimic.portable.render import check_video_path, render_policy, setup_gl
 

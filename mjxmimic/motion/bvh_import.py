@@ -314,9 +314,8 @@ def _frame_calibration(bvh: Bvh, mapping: Mapping, pos: np.ndarray, rot: np.ndar
     right, left = mapping.root_anchor[0], mapping.root_anchor[-1]
     target_side = rest_xpos[body_id[left]] - rest_xpos[body_id[right]]
     source_side = pos[:, joint_of[left]] - pos[:, joint_of[right]]
+    # (one anchor, right == left: both sides are zero vectors, and arctan2(0, 0) = 0 leaves no turn)
     yaw = np.arctan2(source_side[:, 1], source_side[:, 0]) - np.arctan2(target_side[1], target_side[0])
-    if right == left:
-        yaw = np.zeros(len(pos))
     heading = quat.from_yaw(yaw)  # (F, 4)
     target = np.stack([rest_xpos[c] - rest_xpos[b] for b, c, _, _ in bones])  # (B, 3)
     source = np.stack([pos[:, jc] - pos[:, jb] for _, _, jb, jc in bones], axis=1)  # (F, B, 3)

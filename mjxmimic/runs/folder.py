@@ -291,30 +291,3 @@ def load_policy_file(source: Path, *, export_if_missing: bool = False, checkpoin
     from mjxmimic.runs.export import policy_file_from_run
 
     return policy_file_from_run(source, checkpoint)
-
-
-CHARACTER_HELP = ("the character the policy must move: humanoid, dog3d, g1 or an MJCF file (the run or policy "
-                  "file holds it; given, a different one is refused)")
-
-
-def check_character(given: str | None, source: Path) -> None:
-    """`--character` on a command that reads the character from a run folder, policy or composite
-    file: the one it names must be the file's (by MJCF file name), so that a user who expects
-    another character learns it from one line instead of from a playback of the wrong body."""
-    if given is None:
-        return
-    from mjxmimic.core.character import resolve_xml
-    from mjxmimic.portable import composite, policy_file
-
-    want = resolve_xml(given).stem
-    source = Path(source)
-    if source.is_dir():
-        files = [Path(load_config(source).character.xml).stem]
-    elif composite.is_composite(source):
-        files = [Path(e.manifest["character"]["file"]).stem for e in composite.read(source).experts]
-    else:
-        files = [Path(policy_file.read(source).manifest["character"]["file"]).stem]
-    if any(have != want for have in files):
-        raise UserError(f"--character {given}: {source} moves {files[0]}, not {want} (it holds its character; "
-                        "drop --character)")
-
