@@ -7,12 +7,10 @@ happen inside `run`, so `mjxmimic play` stays JAX-free.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
-import io
 import sys
 
-from mjxmimic.core import compile_cache
+from mjxmimic.core import jax_setup
 from mjxmimic.core.errors import UserError
 
 COMMANDS = {
@@ -46,26 +44,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-WARP_NOTICES = ("Failed to import warp:", "Failed to import mujoco_warp:")
-
-
-def _import_mjx_quietly() -> None:
-    """mujoco.mjx prints "Failed to import warp: ..." on stdout whenever the optional warp package
-    is missing (every CPU machine): drop those lines; pass anything else it prints to stderr, so
-    that `--json` output stays JSON."""
-    captured = io.StringIO()
-    with contextlib.redirect_stdout(captured):
-        importlib.import_module("mujoco.mjx")
-    for line in captured.getvalue().splitlines():
-        if not line.startswith(WARP_NOTICES):
-            print(line, file=sys.stderr)
-
-
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command in USES_MJX:
-        _import_mjx_quietly()
-        compile_cache.enable()
+        jax_setup.prepare()
     module = importlib.import_module(COMMANDS[args.command][0])
     try:
         return int(module.run(args) or 0)

@@ -64,3 +64,19 @@ def test_has_checkpoint_needs_a_complete_one(tmp_path):
     assert not folder.has_checkpoint(tmp_path)  # orbax has not committed it
     (step / "_CHECKPOINT_METADATA").write_text(json.dumps({}))
     assert folder.has_checkpoint(tmp_path)
+
+
+def test_a_run_folder_exported_in_memory_keeps_the_warp_notice_off_the_terminal(tmp_path):
+    """compose and render export a run folder without policy.npz in memory: that path imports MJX
+    too, so it must do so as train and eval do (mjxmimic.core.jax_setup)."""
+    run_dir = tmp_path / "run"
+    folder.write_config(run_dir, config_lib.make_config("cpu"))
+    (run_dir / "checkpoints" / "80").mkdir(parents=True)
+    (run_dir / "checkpoints" / "80" / "_CHECKPOINT_METADATA").write_text("{}")  # complete, but unreadable
+    code = ("import sys; sys.modules['warp'] = None; from mjxmimic.cli import main; "
+            "sys.exit(main(sys.argv[1:]))")
+    result = subprocess.run([sys.executable, "-c", code, "compose", str(run_dir), "--out", str(tmp_path / "c.npz")],
+                            cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2, result.stderr
+    assert "Failed to import" not in result.stdout + result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1

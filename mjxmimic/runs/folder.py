@@ -288,6 +288,9 @@ def load_policy_file(source: Path, *, export_if_missing: bool = False, checkpoin
                         f"(write it with `mjxmimic export {source}`)")
     if not has_checkpoint(source):
         raise UserError(f"{source}: neither a policy file nor a run folder with checkpoints")
+    from mjxmimic.core import jax_setup
+
+    jax_setup.prepare()
     from mjxmimic.runs.export import policy_file_from_run
 
     return policy_file_from_run(source, checkpoint)
