@@ -142,3 +142,9 @@ def test_every_option_of_every_command_has_help_text():
 
     missing = [f"{prog} {'/'.join(a.option_strings) or a.dest}" for prog, a in walk(build_parser()) if not a.help]
     assert not missing, missing
+
+
+def test_info_missing_path_names_the_path_alone(tmp_path, capsys):
+    missing = tmp_path / "none.txt"
+    assert cli.main(["clips", "info", str(missing)]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(f"{missing}: no such clip file")

@@ -267,7 +267,7 @@ def test_two_devices_step_the_physics_of_their_own_slices_as_one_device_would():
 def test_the_push_curriculum_ramps_with_the_samples_trained():
     """env.push_ramp_samples: each iteration's rollout steps with (samples so far) / ramp, up to 1,
     and logs it; without it the metric is not there."""
-    config = make_config("cpu", {"env.events": "push", "env.push_ramp_samples": 1024})  # 512 samples an iteration
+    config = make_config("cpu", {"env.events": "push", "env.push_force_n": 100, "env.push_ramp_samples": 1024})  # 512 samples an iteration
     logged, seen = _metrics_of_steps(make_trainer(SeesPushScale(), config), 4, "curriculum/push_scale", "seen_scale")
     assert logged == seen == [0.0, 0.5, 1.0, 1.0]
     plain = make_trainer(StandInEnv(), make_config("cpu"))
@@ -280,6 +280,6 @@ def test_the_push_curriculum_ramps_with_the_samples_trained():
 ])
 def test_pushes_can_start_late(keys, expected):
     """env.push_start_samples: no pushes before it; the ramp, if any, starts there."""
-    config = make_config("cpu", {"env.events": "push", **keys})  # 512 samples an iteration
+    config = make_config("cpu", {"env.events": "push", "env.push_force_n": 100, **keys})  # 512 samples an iteration
     seen, = _metrics_of_steps(make_trainer(SeesPushScale(), config), 4, "seen_scale")
     assert seen == expected

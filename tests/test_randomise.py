@@ -43,6 +43,14 @@ def test_new_keys_are_checked_in_one_line(key, value, named, message):
         make_config("cpu", {"env.push_force_n": 300.0, key: value})
 
 
+def test_pushes_without_a_force_or_listed_twice_are_refused():
+    with pytest.raises(UserError, match="'env.events': push needs a force"):
+        make_config("cpu", {"env.events": "push"})
+    config = make_config("cpu", {"env.events": "push,push", "env.push_force_n": 300.0})
+    with pytest.raises(UserError, match="'env.events': 'push' is listed twice"):  # forces add up
+        events.parse(config.env.events)
+
+
 def test_ranges_are_float_pairs_that_survive_the_json_round_trip():
     config = make_config("cpu", {"env.friction_range": "0.5,1.5", "env.mass_range": [1, 2]})
     assert config.env.friction_range == (0.5, 1.5) and config.env.mass_range == (1.0, 2.0)
@@ -269,8 +277,8 @@ def test_the_curriculum_scales_every_push():
 
 def test_runs_with_pushes_measure_the_pose_termination_from_the_root_unless_told():
     assert make_config("gpu").env.pose_termination_frame == "world"
-    assert make_config("gpu", {"env.events": "push"}).env.pose_termination_frame == "root"
-    told = make_config("gpu", {"env.events": "push", "env.pose_termination_frame": "world"})
+    assert make_config("gpu", {"env.events": "push", "env.push_force_n": 100}).env.pose_termination_frame == "root"
+    told = make_config("gpu", {"env.events": "push", "env.push_force_n": 100, "env.pose_termination_frame": "world"})
     assert told.env.pose_termination_frame == "world"
 
 

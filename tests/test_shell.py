@@ -109,9 +109,33 @@ def test_a_policy_that_turns_nan_stops_with_one_line_and_keeps_the_good_checkpoi
     assert all(np.isfinite(v).all() for layer in params["policy"].values() for v in layer.values())
 
 
+@pytest.mark.parametrize("command", [["train", "--preset", "cpu"], ["eval", "RUN"], ["play", "POLICY.npz"]])
+@pytest.mark.parametrize("seed", ["-1", str(config_lib.SEED_MAX + 1)])
+def test_a_seed_outside_32_bits_is_one_line(command, seed, capsys):
+    # numpy's generators refuse negative seeds (a traceback in play) and JAX's keys keep 32 bits
+    with pytest.raises(SystemExit) as exit_:
+        cli.main([*command, "--seed", seed])
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(f"argument --seed: {seed}: must be in 0..4294967295")
+    for key in ("run.seed", "terrain.seed"):
+        with pytest.raises(UserError, match=f"'{key}': must be in 0..4294967295"):
+            config_lib.make_config("cpu", {key: seed})
+
+
 def test_no_hidden_layer_is_refused():
     with pytest.raises(UserError, match="ppo.policy_hidden': needs at least one layer"):
         config_lib.make_config("cpu", {"ppo.policy_hidden": ""})
+    with pytest.raises(UserError, match="'ppo.policy_hidden': '64,,64' is not a valid tuple"):
+        config_lib.make_config("cpu", {"ppo.policy_hidden": "64,,64"})  # a size left out, not a layer less
+
+
+def test_a_term_named_twice_is_refused():
+    from mjxmimic.task import observation, reward
+
+    with pytest.raises(UserError, match="'env.observations': 'phase' is listed twice"):
+        observation.parse("phase,root_height,bodies,phase")
+    with pytest.raises(UserError, match="'reward.weights': 'pose' is given twice"):  # the last one won
+        reward.parse_weights("pose=0.6,root=0,pose=0.1")
 
 
 def test_a_full_disk_stops_with_one_line_and_keeps_the_last_checkpoint(tmp_path, monkeypatch):

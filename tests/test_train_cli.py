@@ -483,7 +483,7 @@ def test_a_push_curriculum_keeps_no_best_before_its_pushes_are_full(tmp_path):
 
     run_dir = tmp_path / "run"
     config = config_lib.apply_overrides(_standin_config(total_samples=5120, eval_every=1024), {
-        "env.events": "push", "env.push_start_samples": 2048, "env.push_ramp_samples": 1024,
+        "env.events": "push", "env.push_force_n": 100, "env.push_start_samples": 2048, "env.push_ramp_samples": 1024,
         "ppo.learning_rate": 0.5})  # a rate that wrecks the policy: its first evaluations score best
     train(config, run_dir, env=SeesPushScale(), env_factory=lambda c: SeesPushScale(), progress=False)
     evals = [r["step"] for r in read(run_dir) if "eval/nr" in r]

@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from mjxmimic.commands import character_option
+from mjxmimic.commands import character_option, seed_option
 from mjxmimic.runs import folder
 
 DEFAULT_EPISODES = 16
@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     character_option.add_option(parser)
     parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
     parser.add_argument("--episodes", type=int, default=None, help=f"episodes (default {DEFAULT_EPISODES})")
-    parser.add_argument("--seed", type=int, default=None,
+    parser.add_argument("--seed", type=seed_option.seed, default=None,
                         help="draw start times from this seed instead of using the MJX evaluation's")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--viewer", action="store_true", help="watch in MuJoCo's viewer (needs a display)")

@@ -17,6 +17,7 @@ import sys
 import time
 from pathlib import Path
 
+from mjxmimic.commands import seed_option
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="override a config value (repeatable), e.g. --set ppo.learning_rate=3e-4")
     parser.add_argument("--out", type=Path, help="run folder (exactly this path)")
     parser.add_argument("--name", help="run name: the folder runs/NAME")
-    parser.add_argument("--seed", type=int, help="PRNG seed (run.seed)")
+    parser.add_argument("--seed", type=seed_option.seed, help="PRNG seed (run.seed)")
     parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
                         help="also log to this Weights & Biases project (run.wandb_project; the wandb extra; "

@@ -19,6 +19,11 @@ class CharacterConfig:
     xml: str = "humanoid.xml"  # a character NAME (humanoid, dog3d), a file in core/characters/, or a path
 
 
+# Seeds are 32-bit: JAX's keys keep only a seed's low 32 bits (2**63 does not convert at all), and
+# numpy's generators take no negative numbers.
+SEED_MAX = 2**32 - 1
+
+
 @dataclasses.dataclass(frozen=True)
 class ClipConfig:
     name: str = "slow_walk"  # NAME (see `mjxmimic clips list`) or PATH
@@ -264,7 +269,10 @@ def _coerce(value: str, typ: Any, key: str) -> Any:
         if typ is str:
             return value
         if typing.get_origin(typ) is tuple:
-            parts = [p for p in value.strip("()[] ").split(",") if p.strip()]
+            inner = value.strip("()[] ")
+            parts = inner.split(",") if inner else []
+            if any(not p.strip() for p in parts):  # "64,,64": a size left out, not a layer less
+                raise ValueError(value)
             return tuple(typing.get_args(typ)[0](p) for p in parts)
     except ValueError:
         pass
@@ -375,6 +383,8 @@ def validate(config: Config) -> None:
         (env.torque_limit in ("total", "proportional"), "env.torque_limit", "must be 'total' or 'proportional'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),
         (env.push_force_n >= 0, "env.push_force_n", "must be >= 0"),
+        (not _pushes(env) or env.push_force_n > 0 or env.push_force_max_n > 0, "env.events",
+         "push needs a force: set env.push_force_n (or env.push_force_max_n) above 0"),
         (env.push_duration_s > 0, "env.push_duration_s", "must be positive"),
         (env.push_force_max_n == 0 or env.push_force_max_n >= env.push_force_n, "env.push_force_max_n",
          f"must be 0 (a fixed force) or at least env.push_force_n ({env.push_force_n})"),
@@ -420,6 +430,7 @@ def validate(config: Config) -> None:
          f"must be 'none' or one of {', '.join(TERRAINS)}"),
         (0 <= config.terrain.difficulty <= 1, "terrain.difficulty", "must be in [0, 1]"),
         (config.terrain.lanes >= 1, "terrain.lanes", "must be at least 1"),
+        (0 <= config.terrain.seed <= SEED_MAX, "terrain.seed", f"must be in 0..{SEED_MAX}"),
         (config.terrain.length_m > 0 and config.terrain.depth_m > 0 and config.terrain.lane_width_m > 0,
          "terrain.length_m", "length, lane width and depth must be positive"),
         (len(config.terrain.heightmap_shape) == 2 and min(config.terrain.heightmap_shape) >= 1,
@@ -453,6 +464,7 @@ def validate(config: Config) -> None:
         (run.checkpoint_every > 0, "run.checkpoint_every", "must be positive"),
         (run.eval_episodes >= 1, "run.eval_episodes", "must be at least 1"),
         (run.max_seconds >= 0, "run.max_seconds", "must be >= 0"),
+        (0 <= run.seed <= SEED_MAX, "run.seed", f"must be in 0..{SEED_MAX}"),
     ]
     for ok, key, why in checks:
         if not ok:

@@ -404,6 +404,8 @@ def resolve_clip(source: str | Path, user_dir: str | Path | None = None, prefix:
         for cand in _candidates(folder, source, prefix):
             if cand.is_file():
                 return cand
+    if "/" in source:  # a path: the names tried in the folders would only repeat it
+        raise ClipError(f"{source}: no such clip file")
     looked = "; ".join(f"{folder} ({label}{'' if folder.is_dir() else ', missing'})"
                        for label, folder in folders)
     if not any(label == "pybullet" for label, _ in folders):

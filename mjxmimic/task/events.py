@@ -73,6 +73,9 @@ def parse(names: str) -> tuple[str, ...]:
     unknown = [n for n in out if n not in TERMS]
     if unknown:
         raise UserError(f"config key 'env.events': {unknown[0]!r} is not an event (events: {', '.join(TERMS)})")
+    twice = [n for n in out if out.count(n) > 1]
+    if twice:  # the forces add up: push,push would push twice as hard
+        raise UserError(f"config key 'env.events': {twice[0]!r} is listed twice")
     return out
 
 

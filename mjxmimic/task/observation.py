@@ -57,6 +57,9 @@ def parse(names: str) -> tuple[str, ...]:
     unknown = [n for n in out if n not in TERMS]
     if not out or unknown:
         raise UserError(f"config key 'env.observations': {names!r} must name terms among {', '.join(TERMS)}")
+    twice = [n for n in out if out.count(n) > 1]
+    if twice:
+        raise UserError(f"config key 'env.observations': {twice[0]!r} is listed twice")
     return out
 
 

@@ -112,6 +112,8 @@ def parse_weights(text: str) -> dict[str, float]:
         if not item:
             continue
         name, _, value = item.partition("=")
+        if name.strip() in out:
+            raise UserError(f"config key 'reward.weights': {name.strip()!r} is given twice")
         try:
             out[name.strip()] = float(value)
         except ValueError:
