@@ -452,12 +452,28 @@ def test_eval_of_the_exported_file_matches_the_run(run, policy_file, capsys):
         assert from_file[key] == pytest.approx(from_run[key], abs=1e-4), key
 
 
+@pytest.mark.slow
+def test_push_test_of_the_exported_file_matches_the_run(run, policy_file, capsys):
+    """`mjxmimic eval POLICY.npz --push` grades on MJX what `eval RUN --push` grades of the same
+    checkpoint; only the run folder keeps the result (push.json)."""
+    results = []
+    for source in (run["dir"], policy_file):
+        assert cli_main(["eval", str(source), "--push", "--trials", "2", "--json"]) == 0
+        results.append(json.loads(capsys.readouterr().out))
+    from_run, from_file = results
+    assert from_file["policy"] == str(policy_file) and "checkpoint" in from_run
+    for key in ("push_forward_n", "push_sideways_n"):
+        assert from_file[key] == pytest.approx(from_run[key], abs=10.0), key  # one bisection step
+    assert json.loads((run["dir"] / "push.json").read_text()) == from_run  # the file's grade wrote nothing
+
+
 def test_eval_of_a_policy_file_errors_are_one_line(tmp_path, policy_file, capsys):
-    assert cli_main(["eval", str(tmp_path / "missing.npz")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "missing.npz: policy file not found" in err and len(err.splitlines()) == 1
-    assert cli_main(["eval", str(policy_file), "--checkpoint", "best"]) == 2
-    assert "--checkpoint is for run folders" in capsys.readouterr().err
+    for push in ([], ["--push"]):
+        assert cli_main(["eval", str(tmp_path / "missing.npz"), *push]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "missing.npz: policy file not found" in err and len(err.splitlines()) == 1
+        assert cli_main(["eval", str(policy_file), "--checkpoint", "best", *push]) == 2
+        assert "--checkpoint is for run folders" in capsys.readouterr().err
 
 
 def test_cpu_episode_counts_like_the_evaluation(cpu_env):

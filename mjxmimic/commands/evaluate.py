@@ -75,12 +75,17 @@ def _run_push(args: argparse.Namespace) -> int:
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
+    policy_file = args.run_dir.is_file() or args.run_dir.suffix in (".npz", ".onnx")
+    if policy_file and args.checkpoint is not None:
+        raise UserError(f"--checkpoint is for run folders; {args.run_dir} holds one policy")
     result = push_test_run(args.run_dir, args.seed, args.trials, progress=say, which=args.checkpoint or "best")
-    folder.write_json_atomic(args.run_dir / "push.json", result)
+    if not policy_file:  # a run folder keeps its grades; a policy file's stay on the terminal, as its NR's do
+        folder.write_json_atomic(args.run_dir / "push.json", result)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    print_push_table(f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,})", result)
+    what = "MJX" if policy_file else f"checkpoint {result['checkpoint']:,}"
+    print_push_table(f"{args.run_dir} ({result['clip']}, {what})", result)
     return 0
 
 

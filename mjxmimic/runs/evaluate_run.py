@@ -64,32 +64,42 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
     return result
 
 
-def evaluate_policy_file(path: Path, episodes: int | None = None, seed: int | None = None,
-                         progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """NR of an exported policy file (`mjxmimic export`) on MJX, in the conditions of its run's
-    evaluations (its config, character and clips; seed run.seed + 1 by default, the training's
-    start times). The network runs in jax.numpy as mjxmimic.portable.policy_numpy computes it;
-    terrain policies (a heightmap encoder) need their run folder."""
-    if episodes is not None and episodes < 1:
-        raise UserError(f"--episodes {episodes}: must be at least 1")
-    say = progress or (lambda text: None)
+def load_file_policy(path: Path, progress: Callable[[str], None] | None = None) -> tuple[Any, Any, Any]:
+    """(evaluation config, env, deterministic policy fn) of an exported policy file on MJX, in the
+    conditions of its run's evaluations (its config, character and clips). The network runs in
+    jax.numpy as mjxmimic.portable.policy_numpy computes it; terrain policies (a heightmap encoder)
+    need their run folder."""
     pf = folder.load_policy_file(path)
     if "conv_0" in pf.params["policy"]:
         raise UserError(f"{path}: a terrain policy; evaluate its run folder instead")
     config = config_lib.evaluation_config(pf.config())
-    say("building the env")
+    if progress is not None:
+        progress("building the env")
 
     import jax.numpy as jnp
 
     from mjxmimic.envs.mjx_env import ImitationEnv
     from mjxmimic.portable.policy_numpy import deterministic_action, mlp, network_arrays
-    from mjxmimic.runs.evaluate import evaluate
 
     env = ImitationEnv(config, pf.character(), pf.clips(), pf.weights())
     mean, std, layers = network_arrays(pf.params, "policy", jnp)
 
     def policy(obs: Any, key: Any) -> Any:
         return deterministic_action(mlp(obs, mean, std, layers, jnp), env.action_size, jnp)
+
+    return config, env, policy
+
+
+def evaluate_policy_file(path: Path, episodes: int | None = None, seed: int | None = None,
+                         progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """NR of an exported policy file (`mjxmimic export`) on MJX (load_file_policy), with the
+    training's start times by default (seed run.seed + 1)."""
+    if episodes is not None and episodes < 1:
+        raise UserError(f"--episodes {episodes}: must be at least 1")
+    say = progress or (lambda text: None)
+    config, env, policy = load_file_policy(path, say)
+
+    from mjxmimic.runs.evaluate import evaluate
 
     say(f"compiling and running {episodes or config.run.eval_episodes} episodes")
     result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed, episodes=episodes)

@@ -56,9 +56,15 @@ def push_test(env: Any, policy_fn: Callable, seed: int = 0, trials: int = protoc
 
 def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol.TRIALS, env: Any = None,
                   progress: Callable[[str], None] | None = None, which: str = "latest") -> dict[str, Any]:
-    """The push test of one of RUN's checkpoints (the latest by default) in its own env (or `env`)."""
-    from mjxmimic.runs.evaluate_run import load_run_policy
+    """The push test of one of RUN's checkpoints (the latest by default) in its own env (or `env`),
+    or of an exported policy file (RUN a file; then `env` and `which` do not apply)."""
+    from mjxmimic.runs.evaluate_run import load_file_policy, load_run_policy
 
-    config, env, policy, _, step = load_run_policy(run_dir, env, which)
+    if Path(run_dir).is_file() or Path(run_dir).suffix in (".npz", ".onnx"):
+        config, env, policy = load_file_policy(run_dir)
+        where: dict[str, Any] = {"policy": str(run_dir)}
+    else:
+        config, env, policy, _, step = load_run_policy(run_dir, env, which)
+        where = {"checkpoint": step}
     result = push_test(env, policy, config.run.seed + 1 if seed is None else seed, trials, progress)
-    return {"clip": config.clip.name, "checkpoint": step, **result}
+    return {"clip": config.clip.name, **where, **result}
