@@ -26,6 +26,10 @@ def test_folder_and_policy_file_import_without_jax():
 def test_missing_folder_config_and_policy_are_one_line_errors(tmp_path):
     with pytest.raises(UserError, match="run folder not found"):
         folder.load_config(tmp_path / "missing")
+    (tmp_path / "policy.npz").write_bytes(b"")
+    with pytest.raises(UserError, match="policy.npz: a file, not a run folder"):
+        folder.require(tmp_path / "policy.npz")
+    (tmp_path / "policy.npz").unlink()
     with pytest.raises(UserError, match=r"not a run folder \(no config.json\)"):
         folder.load_config(tmp_path)
     with pytest.raises(UserError, match="without policy.npz"):

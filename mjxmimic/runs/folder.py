@@ -90,6 +90,8 @@ def policy_path(run_dir: Path, fmt: str = "npz") -> Path:
 def require(run_dir: Path) -> Path:
     """RUN as a Path; a one-line error when it is not a folder."""
     run_dir = Path(run_dir)
+    if run_dir.is_file():  # an exported policy, say, where a run is needed (`export POLICY.npz`)
+        raise UserError(f"{run_dir}: a file, not a run folder")
     if not run_dir.is_dir():
         raise UserError(f"{run_dir}: run folder not found")
     return run_dir
