@@ -1,5 +1,5 @@
 """What a command does before its first use of JAX and MJX, wherever that comes (train, eval,
-export and bench at once; render, compose and play when handed a run folder without its policy
+export and bench at once; render and compose when handed a run folder without its policy
 file): mujoco.mjx imported without its notice about a missing warp package, and JAX's
 compilation cache on (mjxmimic.core.compile_cache)."""
 
