@@ -12,6 +12,9 @@
 #   rcL3F  every 3 to 4 s, the same forces
 #   rcL4X  every 4 to 5 s, up to 1620 N both ways
 #   rcL3   every 3 to 4 s, up to 1080 N both ways
+# Ran as: calls A (530 s, with the install; 548 s wall), B (560; 587 s wall) and C (PACK=policies,
+# 469; 360 s wall) on two H200s; C ran out before rcL3 and rcL3F were graded, which were then
+# graded on MuJoCo C on a 2-core CPU machine. Records in experiments/robustness/late/.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
