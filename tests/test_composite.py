@@ -383,6 +383,12 @@ def test_play_text_report(composite_file, capsys):
     assert "--push is for single policies" in capsys.readouterr().err
     assert cli.main(["play", str(composite_file), "--expert", "run"]) == 2
     assert "unknown expert 'run'" in capsys.readouterr().err
+    assert cli.main(["play", str(composite_file), "--seconds", "0.3", "--temperature", "-0.5"]) == 2
+    assert "--temperature -0.5: must be >= 0" in capsys.readouterr().err  # would prefer the lowest values
+    assert cli.main(["play", str(composite_file), "--push-once", "700"]) == 2
+    assert "--push-once '700': expected FORCE@TIME" in capsys.readouterr().err  # the flag that was given
+    assert cli.main(["play", str(composite_file), "--knockdowns", "1", "--force", "nan"]) == 2
+    assert "--force nan: must be positive and finite" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------------------- the gate on MJX

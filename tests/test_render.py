@@ -214,3 +214,12 @@ def test_character_given_to_a_policy_command_must_be_the_files(policy_file, tmp_
         assert err.endswith("moves humanoid, not dog3d (it holds its character; drop --character)"), err
         assert len(err.splitlines()) == 1
     assert not (tmp_path / "v.mp4").exists()
+
+
+def test_a_push_must_be_finite_and_names_its_flag():
+    from mjxmimic.commands.render import parse_push
+
+    assert parse_push("300@1.5", "forward") == (300.0, 1.5, 0.0)
+    for text in ("inf@1", "300@nan", "-5@1"):
+        with pytest.raises(UserError, match=f"--push-once '{text}': force and time must be finite and >= 0"):
+            parse_push(text, "forward", "--push-once")

@@ -18,8 +18,8 @@ def check_knockdowns(args: argparse.Namespace) -> tuple[float, str]:
     if args.knockdowns < 1:
         raise UserError(f"--knockdowns {args.knockdowns}: must be at least 1")
     force = recovery.DEFAULT_FORCE_N if args.force is None else args.force
-    if force <= 0:
-        raise UserError(f"--force {force}: must be positive")
+    if not 0 < force < float("inf"):  # nan too
+        raise UserError(f"--force {force}: must be positive and finite")
     return force, args.push_direction or "random"
 
 
@@ -113,7 +113,7 @@ def play(args: argparse.Namespace, c) -> int:
     if args.push_once is not None:
         from mjxmimic.task.recovery import DIRECTIONS
 
-        force, at, _ = parse_push(args.push_once, "forward")
+        force, at, _ = parse_push(args.push_once, "forward", "--push-once")
         push = (force, at, DIRECTIONS[direction])
     out = composite.play(c, seconds, args.start or 0.0, args.expert, push, 0 if args.seed is None else args.seed,
                          args.temperature)

@@ -53,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "as `mjxmimic play --finish-cycle` does (default auto)")
 
 
-def parse_push(text: str, direction: str) -> tuple[float, float, float]:
+def parse_push(text: str, direction: str, flag: str = "--push") -> tuple[float, float, float]:
     """'300@1.5' -> (300 N, at 1.5 s, the direction's turn from the facing)."""
     from mjxmimic.core.errors import UserError
     from mjxmimic.task.recovery import DIRECTIONS
@@ -61,9 +61,9 @@ def parse_push(text: str, direction: str) -> tuple[float, float, float]:
     try:
         force, at = (float(part) for part in text.split("@"))
     except ValueError:
-        raise UserError(f"--push {text!r}: expected FORCE@TIME, e.g. 300@1.5 (newtons, seconds)") from None
-    if force < 0 or at < 0:
-        raise UserError(f"--push {text!r}: force and time must be >= 0")
+        raise UserError(f"{flag} {text!r}: expected FORCE@TIME, e.g. 300@1.5 (newtons, seconds)") from None
+    if not (0 <= force < float("inf") and 0 <= at < float("inf")):
+        raise UserError(f"{flag} {text!r}: force and time must be finite and >= 0")
     return force, at, DIRECTIONS[direction]
 
 

@@ -127,11 +127,17 @@ def _unique_names(names: list[str]) -> list[str]:
     return out
 
 
+def check_temperature(temperature: float) -> float:
+    """The gate's softmax temperature: below 0 it would prefer the experts that expect the least."""
+    if not np.isfinite(temperature) or temperature < 0:
+        raise UserError(f"--temperature {temperature}: must be >= 0 (0: always the highest value)")
+    return float(temperature)
+
+
 def compose(experts: list[PolicyFile], temperature: float = DEFAULT_TEMPERATURE) -> Composite:
     """A composite of exported experts (checked by `check_experts`)."""
     check_experts(experts)
-    if not np.isfinite(temperature) or temperature < 0:
-        raise UserError(f"--temperature {temperature}: must be >= 0 (0: always the highest value)")
+    check_temperature(temperature)
     names = _unique_names([pf.clip().name for pf in experts])
     entries = []
     for name, pf in zip(names, experts, strict=True):
@@ -207,7 +213,7 @@ class Player:
         self.env = CpuEnv(c.config(), c.character(), c.clips())
         self.env.terminations = COMPOSITE_TERMINATIONS
         self.gate = gate_lib.make_gate(self.env.spec, self.env.physics.kinematics,
-                                       c.temperature if temperature is None else temperature)
+                                       c.temperature if temperature is None else check_temperature(temperature))
         self.policies = [pf.policy() for pf in c.experts]
         self.values = [pf.value() for pf in c.experts]
 
