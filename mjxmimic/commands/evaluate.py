@@ -75,7 +75,7 @@ def _run_push(args: argparse.Namespace) -> int:
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    policy_file = args.run_dir.is_file() or args.run_dir.suffix in (".npz", ".onnx")
+    policy_file = folder.names_policy_file(args.run_dir)
     if policy_file and args.checkpoint is not None:
         raise UserError(f"--checkpoint is for run folders; {args.run_dir} holds one policy")
     result = push_test_run(args.run_dir, args.seed, args.trials, progress=say, which=args.checkpoint or "best")
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     from mjxmimic.runs.evaluate_run import evaluate_policy_file, evaluate_run
 
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
-    if args.run_dir.is_file() or args.run_dir.suffix in (".npz", ".onnx"):
+    if folder.names_policy_file(args.run_dir):
         if args.checkpoint is not None:
             from mjxmimic.core.errors import UserError
 

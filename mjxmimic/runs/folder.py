@@ -85,6 +85,12 @@ def policy_path(run_dir: Path, fmt: str = "npz") -> Path:
     return Path(run_dir) / f"{POLICY}.{fmt}"
 
 
+def names_policy_file(source: Path) -> bool:
+    """Whether a command's RUN|POLICY argument means an exported policy file (a missing one too,
+    so that its error says "policy file not found") rather than a run folder."""
+    return Path(source).is_file() or Path(source).suffix in (".npz", ".onnx")
+
+
 # ---- the folder and its files --------------------------------------------------------------------
 
 def require(run_dir: Path) -> Path:

@@ -58,9 +58,10 @@ def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol
                   progress: Callable[[str], None] | None = None, which: str = "latest") -> dict[str, Any]:
     """The push test of one of RUN's checkpoints (the latest by default) in its own env (or `env`),
     or of an exported policy file (RUN a file; then `env` and `which` do not apply)."""
+    from mjxmimic.runs import folder
     from mjxmimic.runs.evaluate_run import load_file_policy, load_run_policy
 
-    if Path(run_dir).is_file() or Path(run_dir).suffix in (".npz", ".onnx"):
+    if folder.names_policy_file(run_dir):
         config, env, policy = load_file_policy(run_dir)
         where: dict[str, Any] = {"policy": str(run_dir)}
     else:
