@@ -129,6 +129,27 @@ def test_no_hidden_layer_is_refused():
         config_lib.make_config("cpu", {"ppo.policy_hidden": "64,,64"})  # a size left out, not a layer less
 
 
+@pytest.mark.parametrize("key, value, message", [
+    ("ppo.entropy_cost", "nan", "must be a finite number"),  # nan passes every bound
+    ("ppo.learning_rate", "inf", "must be a finite number"),  # trained until the loss turned nan
+    ("env.mass_range", "1,nan", "must be a finite number"),
+    ("run.target_nr", "1.5", "must be in \\[0, 1\\]"),  # never reached: a run that cannot stop early
+    ("ppo.clipping_epsilon", "0", "must be positive"),  # a policy that cannot move
+])
+def test_numbers_that_no_setting_means_are_refused(key, value, message):
+    with pytest.raises(UserError, match=f"'{key}': {message}"):
+        config_lib.make_config("cpu", {key: value})
+
+
+@pytest.mark.parametrize("command", [["train", "--out", ""], ["sweep", ""], ["export", "RUN", "--out", " "]])
+def test_an_empty_path_is_refused_not_read_as_the_current_folder(command, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(command)
+    assert exit_.value.code == 2 and capsys.readouterr().err.strip().endswith("empty path")
+    assert not list(tmp_path.iterdir())  # `train --out ""` trained into the current folder
+
+
 def test_a_term_named_twice_is_refused():
     from mjxmimic.task import observation, reward
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
+from mjxmimic.commands import arg_types
 from mjxmimic.core import config as config_lib
 
 
@@ -25,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="what to measure: physics alone, the env step, the full training loop (default: all)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override a config key (repeatable)")
-    parser.add_argument("--out", type=Path, default=None, help="write the results as JSON here")
+    parser.add_argument("--out", type=arg_types.path, default=None, help="write the results as JSON here")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
+from mjxmimic.commands import arg_types
 from mjxmimic.core.errors import UserError
 
 if TYPE_CHECKING:
@@ -178,7 +179,7 @@ def run_info(args: argparse.Namespace) -> int:
 
 def add_render_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("clip", metavar="NAME|PATH", help="a clip name (see `mjxmimic clips list`) or a file")
-    parser.add_argument("--out", metavar="FILE.mp4", default=None, help="video file (default: NAME.mp4)")
+    parser.add_argument("--out", type=arg_types.path, metavar="FILE.mp4", default=None, help="video file (default: NAME.mp4)")
     parser.add_argument("--seconds", type=float, default=None, help="length (default: the clip's duration)")
     parser.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
     parser.add_argument("--width", type=int, default=640, help="video width in pixels (a multiple of 16)")
@@ -216,7 +217,7 @@ def run_render(args: argparse.Namespace) -> int:
 
 def add_import_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", metavar="FILE.bvh", help="motion capture file (BVH)")
-    parser.add_argument("--out", metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
+    parser.add_argument("--out", type=arg_types.path, metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
     parser.add_argument("--character", default="humanoid", metavar="NAME|PATH",
                         help="the character to move (default: humanoid; one that no mapping names, e.g. g1, "
                              "through the humanoid and mjxmimic/motion/retargets/)")
@@ -331,7 +332,7 @@ def _print_quality(report: dict, about: str) -> None:
 def add_retarget_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("clip", metavar="CLIP", help="clip name or file of the source character")
     parser.add_argument("--to", required=True, metavar="NAME|PATH", help="the character to move (e.g. g1)")
-    parser.add_argument("--out", metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
+    parser.add_argument("--out", type=arg_types.path, metavar="FILE", required=True, help="clip file to write (DeepMimic's format)")
     parser.add_argument("--from", dest="character", default="humanoid", metavar="NAME|PATH",
                         help="the clip's character (default: humanoid)")
     parser.add_argument("--map", metavar="FILE.json", default=None,

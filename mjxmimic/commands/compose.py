@@ -16,11 +16,13 @@ import argparse
 import json
 from pathlib import Path
 
+from mjxmimic.commands import arg_types
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("experts", type=Path, nargs="+", metavar="RUN_OR_POLICY",
+    parser.add_argument("experts", type=arg_types.path, nargs="+", metavar="RUN_OR_POLICY",
                         help="exported policy files (.npz) or run folders, one per expert")
-    parser.add_argument("--out", type=Path, required=True, metavar="FILE.npz", help="the composite file to write")
+    parser.add_argument("--out", type=arg_types.path, required=True, metavar="FILE.npz", help="the composite file to write")
     parser.add_argument("--temperature", type=float, default=0.3,
                         help="the gate's softmax temperature over the experts' values (default 0.3; 0: arg max)")
     parser.add_argument("--json", action="store_true", help="print the composite's manifest summary as JSON")

@@ -17,16 +17,16 @@ import json
 import sys
 from pathlib import Path
 
-from mjxmimic.commands import character_option, seed_option
+from mjxmimic.commands import arg_types, character_option
 from mjxmimic.runs import folder
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder, or an exported policy file (on MJX)")
+    parser.add_argument("run_dir", type=arg_types.path, metavar="RUN", help="run folder, or an exported policy file (on MJX)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     character_option.add_option(parser)
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
-    parser.add_argument("--seed", type=seed_option.seed, help="seed of the start times (default: run.seed + 1, as in training)")
+    parser.add_argument("--seed", type=arg_types.seed, help="seed of the start times (default: run.seed + 1, as in training)")
     parser.add_argument("--checkpoint", metavar="best|latest|N",
                         help="which checkpoint: the best evaluation's (default; the latest for a run "
                              "that kept none), the latest, or N samples")

@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
-from mjxmimic.commands import character_option
+from mjxmimic.commands import arg_types, character_option
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("run_dir", type=Path, metavar="RUN", help="run folder")
-    parser.add_argument("--out", type=Path, metavar="FILE", help="output file (default: RUN/policy.npz or .onnx)")
+    parser.add_argument("run_dir", type=arg_types.path, metavar="RUN", help="run folder")
+    parser.add_argument("--out", type=arg_types.path, metavar="FILE", help="output file (default: RUN/policy.npz or .onnx)")
     parser.add_argument("--format", choices=("npz", "onnx"), default=None,
                         help="file format (default: from --out's suffix, else npz)")
     parser.add_argument("--json", action="store_true", help="print the manifest as JSON")

@@ -27,21 +27,20 @@ import json
 import os
 import sys
 import time
-from pathlib import Path
 
-from mjxmimic.commands import character_option, seed_option
+from mjxmimic.commands import arg_types, character_option
 from mjxmimic.runs import folder
 
 DEFAULT_EPISODES = 16
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("policy", type=Path, metavar="POLICY", help="exported policy file or run folder")
+    parser.add_argument("policy", type=arg_types.path, metavar="POLICY", help="exported policy file or run folder")
     parser.add_argument("--clip", metavar="NAME|PATH", help="play on another clip (default: the file's own)")
     character_option.add_option(parser)
     parser.add_argument("--clips-dir", metavar="DIR", default=None, help="extra folder for clip names")
     parser.add_argument("--episodes", type=int, default=None, help=f"episodes (default {DEFAULT_EPISODES})")
-    parser.add_argument("--seed", type=seed_option.seed, default=None,
+    parser.add_argument("--seed", type=arg_types.seed, default=None,
                         help="draw start times from this seed instead of using the MJX evaluation's")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--viewer", action="store_true", help="watch in MuJoCo's viewer (needs a display)")
@@ -63,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--switch-entry", choices=["phase", "nearest"], default=None,
                         help="where a switch between cyclic clips enters the next: the same phase or the "
                              "nearest reference pose (default: the rule the policy was trained with)")
-    parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
+    parser.add_argument("--switch-routes", type=arg_types.path, default=None, metavar="TRIALS.json",
                         help="route switches that the trials (the JSON of --switch-trials N --json) saw "
                              "fall through a third skill, for 1 s, where that held more often")
     parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]|auto|none", default=None,
@@ -85,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                            help="the recovery rate over this many knock-downs instead (mjxmimic.task.recovery)")
     composite.add_argument("--force", type=float, default=None,
                            help="the knock-down push in newtons (default mjxmimic.task.recovery.DEFAULT_FORCE_N)")
-    composite.add_argument("--save-states", type=Path, default=None, metavar="FILE.npz",
+    composite.add_argument("--save-states", type=arg_types.path, default=None, metavar="FILE.npz",
                            help="with --knockdowns: also write the knocked-down bodies' states (qpos, qvel), "
                                 "for getups to train from (env.start_states)")
 

@@ -16,15 +16,14 @@ Rendering is offscreen: EGL or OSMesa (mjxmimic.portable.render says which packa
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from mjxmimic.commands import character_option
+from mjxmimic.commands import arg_types, character_option
 from mjxmimic.runs import folder
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("source", type=Path, metavar="RUN|POLICY", help="run folder or exported policy file")
-    parser.add_argument("--out", type=Path, required=True, metavar="FILE.mp4",
+    parser.add_argument("source", type=arg_types.path, metavar="RUN|POLICY", help="run folder or exported policy file")
+    parser.add_argument("--out", type=arg_types.path, required=True, metavar="FILE.mp4",
                         help="video file to write (.png: a strip of 8 frames spread over the episode)")
     parser.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=False,
                         help="show the reference motion as a translucent ghost")
@@ -46,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a composite file: the expert to start in (default: the first looping one)")
     parser.add_argument("--skill-sequence", metavar="SKILL:SECONDS,...", default=None,
                         help="a dataset policy with the skill observation: switch skills, e.g. \"walk:4,run:4\"")
-    parser.add_argument("--switch-routes", type=Path, default=None, metavar="TRIALS.json",
+    parser.add_argument("--switch-routes", type=arg_types.path, default=None, metavar="TRIALS.json",
                         help="with --skill-sequence: route switches as `mjxmimic play --switch-routes` does")
     parser.add_argument("--finish-cycle", metavar="SKILL[,SKILL]|auto|none", default=None,
                         help="with --skill-sequence: switches out of these skills wait for their cycle's end, "

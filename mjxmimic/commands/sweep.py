@@ -33,16 +33,16 @@ from __future__ import annotations
 import argparse
 import os
 import shlex
-from pathlib import Path
 
+from mjxmimic.commands import arg_types
 from mjxmimic.core.errors import UserError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("spec", type=Path, help="sweep spec (JSON), e.g. experiments/sweeps/walk_action_mode.json")
+    parser.add_argument("spec", type=arg_types.path, help="sweep spec (JSON), e.g. experiments/sweeps/walk_action_mode.json")
     parser.add_argument("--dry-run", action="store_true", help="print the runs and what would happen; run nothing")
     parser.add_argument("--report", action="store_true", help="only (re)write the report from the run folders")
-    parser.add_argument("--out", type=Path, help="sweep folder (default: the spec's \"out\", else runs/sweeps/NAME)")
+    parser.add_argument("--out", type=arg_types.path, help="sweep folder (default: the spec's \"out\", else runs/sweeps/NAME)")
     parser.add_argument("--gpus", default=None,
                         help="auto (default; or $MJXMIMIC_SWEEP_GPUS): one run per visible GPU at a time; "
                              "none: one after another; N: the first N GPUs; 0,2: those GPU ids")

@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from mjxmimic.commands import seed_option
+from mjxmimic.commands import arg_types
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs import folder
@@ -38,10 +38,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="config preset (default: gpu where JAX sees a GPU, else cpu)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override a config value (repeatable), e.g. --set ppo.learning_rate=3e-4")
-    parser.add_argument("--out", type=Path, help="run folder (exactly this path)")
+    parser.add_argument("--out", type=arg_types.path, help="run folder (exactly this path)")
     parser.add_argument("--name", help="run name: the folder runs/NAME")
-    parser.add_argument("--seed", type=seed_option.seed, help="PRNG seed (run.seed)")
-    parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
+    parser.add_argument("--seed", type=arg_types.seed, help="PRNG seed (run.seed)")
+    parser.add_argument("--resume", type=arg_types.path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
                         help="also log to this Weights & Biases project (run.wandb_project; the wandb extra; "
                              "WANDB_MODE=offline without network)")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import typing
 from pathlib import Path
 from typing import Any
@@ -366,8 +367,24 @@ def _scale_range_ok(factors: tuple[float, ...], zero_ok: bool = False) -> bool:
     return (lo >= 0 if zero_ok else lo > 0) and lo <= hi < float("inf")
 
 
+def _non_finite_key(config: Config) -> str | None:
+    """The first key holding nan or inf (alone or in a tuple): no setting means either, and they
+    would pass every bound below (nan compares false both ways) and fail during training."""
+    for section in dataclasses.fields(config):
+        values = getattr(config, section.name)
+        for field in dataclasses.fields(values):
+            value = getattr(values, field.name)
+            numbers = value if isinstance(value, tuple) else (value,)
+            if any(isinstance(v, float) and not math.isfinite(v) for v in numbers):
+                return f"{section.name}.{field.name}"
+    return None
+
+
 def validate(config: Config) -> None:
     """Reject values that would fail later, naming the key."""
+    bad = _non_finite_key(config)
+    if bad is not None:
+        raise UserError(f"config key {bad!r}: must be a finite number")
     env, ppo, run = config.env, config.ppo, config.run
     checks = [
         (env.control_hz > 0, "env.control_hz", "must be positive"),
@@ -454,6 +471,10 @@ def validate(config: Config) -> None:
         (ppo.learning_rate_final > 0, "ppo.learning_rate_final", "must be positive"),
         (0 < ppo.discounting <= 1, "ppo.discounting", "must be in (0, 1]"),
         (0 <= ppo.gae_lambda <= 1, "ppo.gae_lambda", "must be in [0, 1]"),
+        (ppo.clipping_epsilon > 0, "ppo.clipping_epsilon", "must be positive (0 would keep the policy from moving)"),
+        (ppo.entropy_cost >= 0, "ppo.entropy_cost", "must be >= 0 (0 = no entropy bonus)"),
+        (ppo.max_grad_norm > 0, "ppo.max_grad_norm", "must be positive"),
+        (ppo.reward_scaling > 0, "ppo.reward_scaling", "must be positive"),
         (ppo.init_action_std > 0, "ppo.init_action_std", "must be positive"),
         (len(ppo.policy_hidden) > 0 and all(h > 0 for h in ppo.policy_hidden), "ppo.policy_hidden",
          "needs at least one layer, every size positive (e.g. 1024,512)"),
@@ -464,6 +485,7 @@ def validate(config: Config) -> None:
         (run.checkpoint_every > 0, "run.checkpoint_every", "must be positive"),
         (run.eval_episodes >= 1, "run.eval_episodes", "must be at least 1"),
         (run.max_seconds >= 0, "run.max_seconds", "must be >= 0"),
+        (0 <= run.target_nr <= 1, "run.target_nr", "must be in [0, 1] (an NR; 0 = never stop early)"),
         (0 <= run.seed <= SEED_MAX, "run.seed", f"must be in 0..{SEED_MAX}"),
     ]
     for ok, key, why in checks:
