@@ -133,3 +133,22 @@ def test_dog_steps_on_mujoco_c(deepmimic_dir):
         assert np.all(np.isfinite(step.obs)) and not step.fell
         rewards.append(step.reward)
     assert min(rewards) > 0.5  # still near the trot a third of a second later
+
+
+def test_a_file_that_is_no_character_is_one_line(tmp_path):
+    from mjxmimic.core.character import load_character
+    from mjxmimic.core.errors import UserError
+
+    cases = {"text.xml": "not xml", "no_root.xml": '<mujoco><worldbody><body><geom size="1"/></body></worldbody></mujoco>',
+             "no_custom.xml": '<mujoco><worldbody><body><freejoint/><geom size="1"/></body></worldbody></mujoco>'}
+    for name, text in cases.items():
+        (tmp_path / name).write_text(text)
+        with pytest.raises(UserError) as err:
+            load_character(tmp_path / name)
+        assert str(err.value).startswith(f"character {tmp_path / name}: ") and "\n" not in str(err.value), name
+    with pytest.raises(UserError, match="first joint must be the root's free joint"):
+        load_character(tmp_path / "no_root.xml")
+    with pytest.raises(UserError, match="missing from the model's <custom> block"):
+        load_character(tmp_path / "no_custom.xml")
+    with pytest.raises(UserError, match="character file not found"):
+        load_character(tmp_path / "missing.xml")

@@ -172,7 +172,9 @@ def physics_model(character: Character, physics_hz: int, solver_iterations: int,
 def _custom_text(model: mujoco.MjModel, name: str) -> str:
     idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
     if idx < 0:
-        raise ValueError(f"{name!r} missing from the model's <custom> block")
+        raise ValueError(f"{name!r} missing from the model's <custom> block (a character's MJCF names its "
+                         f"joints, gains and end effectors there, as mjxmimic/core/characters/humanoid.xml does; "
+                         f"the Unitree G1 is --character g1)")
     adr, size = model.text_adr[idx], model.text_size[idx]
     return bytes(model.text_data[adr : adr + size]).decode().rstrip("\x00")
 
@@ -196,10 +198,19 @@ def _body_ids(model: mujoco.MjModel, names: str) -> tuple[int, ...]:
 
 
 def load_character(xml_path: str | Path = DEFAULT_XML) -> Character:
-    """Load an MJCF character and derive its layout by name."""
+    """Load an MJCF character and derive its layout by name; a file that is not one (MuJoCo cannot
+    read it, or it lacks the character's <custom> block) is a one-line UserError naming it."""
     xml_path = Path(xml_path)
     if not xml_path.is_file():
-        raise FileNotFoundError(f"{xml_path}: character file not found")
+        raise UserError(f"{xml_path}: character file not found")
+    try:
+        return _load_character(xml_path)
+    except ValueError as err:  # MuJoCo's own parse and compile errors are ValueErrors too
+        why = " ".join(str(err).split()).removeprefix(f"{xml_path}: ")
+        raise UserError(f"character {xml_path}: {why}") from None
+
+
+def _load_character(xml_path: Path) -> Character:
     model = mujoco.MjModel.from_xml_path(str(xml_path))
     if model.njnt == 0 or int(model.jnt_type[0]) != _FREE:
         raise ValueError(f"{xml_path}: the first joint must be the root's free joint")
