@@ -369,7 +369,7 @@ def test_training_perturbations_stay_out_of_evaluation(tmp_path, monkeypatch):
     assert evaluation_config(graded) == graded
     built = []
 
-    def factory(cfg):
+    def factory(cfg, run_dir=None):  # make_env's signature, for the monkeypatch below
         built.append(cfg)
         return StandInEnv()
 

@@ -527,3 +527,48 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as stop:
         cli.main(["--version"])
     assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"mjxmimic {__version__}"
+
+
+def test_a_run_keeps_its_clip_so_that_it_outlives_the_original(tmp_path):
+    """Evaluation, export and resume rebuild the run's env from RUN/clips/: an edited or deleted
+    original (or a machine without MJXMIMIC_CLIPS) changes nothing."""
+    from mjxmimic.envs.mjx_env import load_env_inputs
+    from mjxmimic.motion.clip import ClipError
+
+    original = tmp_path / "mine.txt"
+    original.write_text((REPO / "mjxmimic" / "motion" / "clips" / "slow_walk.txt").read_text())
+    config = config_lib.apply_overrides(_standin_config(), {"clip.name": str(original)})
+    run_dir = tmp_path / "run"
+    train(config, run_dir, env=StandInEnv(), progress=False)
+    assert (run_dir / "clips" / "mine.txt").read_text() == original.read_text()
+    _, before, _ = load_env_inputs(config)
+    original.unlink()
+    with pytest.raises(ClipError, match="no such clip file"):
+        load_env_inputs(config)
+    _, kept, weights = load_env_inputs(config, run_dir)
+    assert weights is None and [c.name for c in kept] == [c.name for c in before] == ["mine"]
+    assert (kept[0].qpos == before[0].qpos).all() and kept[0].path == run_dir / "clips" / "mine.txt"
+
+
+def test_a_dataset_run_keeps_its_clips_and_weights(tmp_path, monkeypatch):
+    from mjxmimic.envs.mjx_env import load_env_inputs
+
+    data = tmp_path / "two.json"
+    data.write_text(json.dumps({"clips": [{"clip": "slow_walk", "weight": 2}, "squat"]}))
+    config = config_lib.apply_overrides(_standin_config(), {"clip.name": str(data)})
+    run_dir = tmp_path / "run"
+    train(config, run_dir, env=StandInEnv(), progress=False)
+    assert sorted(p.name for p in (run_dir / "clips").iterdir()) == ["kept_dataset.json", "slow_walk.txt", "squat.txt"]
+    data.unlink()
+    _, clips, weights = load_env_inputs(config, run_dir)
+    assert [c.name for c in clips] == ["slow_walk", "squat"] and weights == [2.0, 1.0]
+    built_for = []
+
+    def make_env(cfg, max_worlds=None, run_dir=None):
+        built_for.append(run_dir)
+        return StandInEnv()
+
+    monkeypatch.setattr("mjxmimic.envs.mjx_env.make_env", make_env)
+    longer = config_lib.apply_overrides(config, {"run.total_samples": 7680})
+    assert train(longer, run_dir, resume=True, progress=False).reason == "done"
+    assert built_for and set(built_for) == {run_dir}  # the resume's envs come from the kept clips

@@ -151,18 +151,22 @@ class ImitationEnv(Env):
         return step_lib.eval_horizon(self.spec, clip, jnp.asarray(t), jnp)
 
 
-def load_env_inputs(config: Config) -> tuple[Character, list[Any], list[float] | None]:
-    """(character, clips, weights): clip.name is one clip, or a dataset of them (weights then)."""
+def load_env_inputs(config: Config, run_dir: Any = None) -> tuple[Character, list[Any], list[float] | None]:
+    """(character, clips, weights): clip.name is one clip, or a dataset of them (weights then);
+    those that `run_dir` kept (mjxmimic.runs.folder.keep_clips) where it kept them."""
     from mjxmimic.motion import dataset
     from mjxmimic.motion.clip import load_clip_source
+    from mjxmimic.runs.folder import kept_clip_source
 
     character = load_character(resolve_xml(config.character.xml))
-    if dataset.is_dataset(config.clip.name):
-        data = dataset.load_dataset(config.clip.name, character)
+    source = kept_clip_source(run_dir) or config.clip.name
+    if dataset.is_dataset(source):
+        data = dataset.load_dataset(source, character)
         return character, data.clips, data.weights
-    return character, [load_clip_source(config.clip.name, character)], None
+    return character, [load_clip_source(source, character)], None
 
 
-def make_env(config: Config, max_worlds: int | None = None) -> ImitationEnv:
-    character, clips, weights = load_env_inputs(config)
+def make_env(config: Config, max_worlds: int | None = None, run_dir: Any = None) -> ImitationEnv:
+    """The env of `config`, with the clips that `run_dir` kept where it names a run that did."""
+    character, clips, weights = load_env_inputs(config, run_dir)
     return ImitationEnv(config, character, clips, weights, max_worlds=max_worlds)

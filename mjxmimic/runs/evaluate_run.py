@@ -31,7 +31,7 @@ def load_run_policy(run_dir: Path, env: Any = None, which: str = "latest",
     if env is None:
         from mjxmimic.envs.mjx_env import make_env
 
-        env = make_env(config_lib.evaluation_config(config))
+        env = make_env(config_lib.evaluation_config(config), run_dir=run_dir)
     params, meta = folder.load_policy_params(run_dir, env.observation_size, env.action_size, step, best)
     networks = make_networks(env.observation_size, env.action_size, config)
     return config, env, make_policy_fn(networks, params, deterministic=True), meta, step

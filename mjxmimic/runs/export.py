@@ -70,7 +70,7 @@ def policy_file_from_run(run_dir: Path, which: str = "best") -> PolicyFile:
 
     run_dir = Path(run_dir)
     config = folder.load_config(run_dir)
-    character, clips, weights = load_env_inputs(config)
+    character, clips, weights = load_env_inputs(config, run_dir)
     step, best = folder.select_checkpoint(run_dir, which)
     params, meta = folder.load_policy_params(run_dir, step=step, best=best)
 

@@ -10,6 +10,9 @@ parts through these names, so the layout is written down once.
     RUN/eval.json      the latest NR evaluation (mjxmimic.runs.evaluate) with the run's summary
     RUN/eval_<N>.json  `mjxmimic eval`'s evaluation of checkpoint N
     RUN/policy.npz     the exported policy (mjxmimic.portable.policy_file), or policy.onnx
+    RUN/clips/         copies of the clip files the run trained on (a dataset's as kept_dataset.json of
+                       them), read instead of the clip's name, so that evaluations, exports and resumes
+                       see the same motion wherever the folder goes and whatever becomes of the originals
     RUN/.lock          held (flock) by the process training the run, so that no second one writes it
 
 Paths, config, eval and policy files need no JAX (sweeps and `mjxmimic play` use them); the
@@ -38,6 +41,8 @@ CHECKPOINTS = "checkpoints"
 BEST = "best"
 EVAL = "eval.json"
 POLICY = "policy"  # RUN/policy.<format>
+CLIPS = "clips"
+KEPT_DATASET = "kept_dataset.json"  # in RUN/clips/: the dataset's clips (by file name) and weights
 
 # Orbax writes one of these into a checkpoint's folder when the checkpoint is complete.
 _COMMIT_MARKERS = ("_CHECKPOINT_METADATA", "commit_success.txt")
@@ -160,6 +165,40 @@ def write_config(run_dir: Path, config: config_lib.Config) -> None:
     config_lib.save(config, config_path(run_dir))
 
 
+def keep_clips(run_dir: Path, clips: list[Any], weights: list[float] | None = None) -> None:
+    """Copy the files of a run's `clips` (mjxmimic.motion.clip.Clip) into RUN/clips/, with a
+    dataset's `weights` as RUN/clips/kept_dataset.json; whole or not at all."""
+    import shutil
+
+    dest = Path(run_dir) / CLIPS
+    tmp = dest.with_name(CLIPS + ".tmp")
+    try:
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
+        for clip in clips:
+            shutil.copyfile(clip.path, tmp / Path(clip.path).name)
+        if weights is not None:
+            entries = [{"clip": Path(c.path).name, "weight": w} for c, w in zip(clips, weights, strict=True)]
+            (tmp / KEPT_DATASET).write_text(json.dumps({"clips": entries}, indent=1))
+        shutil.rmtree(dest, ignore_errors=True)
+        tmp.rename(dest)
+    except OSError as err:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise UserError(f"{dest}: cannot keep the run's clips there ({err.strerror or err})") from None
+
+
+def kept_clip_source(run_dir: Path | None) -> Path | None:
+    """What RUN trained on, as kept in RUN/clips/ (a clip file or the kept dataset), else None (a
+    run from before the folder kept them: its clip is found by name)."""
+    dest = Path(run_dir) / CLIPS if run_dir is not None else None
+    if dest is None or not dest.is_dir():
+        return None
+    if (dest / KEPT_DATASET).is_file():
+        return dest / KEPT_DATASET
+    files = sorted(dest.iterdir())
+    return files[0] if len(files) == 1 else None
+
+
 def _read_json(path: Path) -> dict[str, Any] | None:
     """A JSON object file of the run, or None when there is none; a one-line error when it is not
     a JSON object."""
@@ -271,8 +310,8 @@ def load_policy_params(run_dir: Path, observation_size: int | None = None, actio
         from mjxmimic.motion import dataset
 
         character = load_character(resolve_xml(config.character.xml))
-        nclips = (len(dataset.load_dataset(config.clip.name, character).clips)
-                  if dataset.is_dataset(config.clip.name) else 1)
+        source = kept_clip_source(run_dir) or config.clip.name
+        nclips = len(dataset.load_dataset(source, character).clips) if dataset.is_dataset(source) else 1
         observation_size = observation_size_of(config, character.model.nbody, nclips)
         action_size = character.action_size
     networks = make_networks(observation_size, action_size, config)

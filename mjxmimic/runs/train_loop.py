@@ -175,7 +175,11 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     from mjxmimic.learn.ppo import export_params, make_trainer
 
     if env_factory is None:
-        from mjxmimic.envs.mjx_env import make_env as env_factory
+        import functools
+
+        from mjxmimic.envs.mjx_env import make_env
+
+        env_factory = functools.partial(make_env, run_dir=run_dir)  # a resume reads the clips the run kept
     if env is None:
         env = env_factory(config)
     trainer = make_trainer(env, config)
@@ -224,6 +228,11 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         metrics_log.truncate(run_dir, int(meta["env_steps"]))
     if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
         folder.write_config(run_dir, config)  # only once the restore has succeeded
+    if not resume:
+        from mjxmimic.envs.mjx_env import load_env_inputs
+
+        _, clips, weights = load_env_inputs(config, run_dir)  # those kept by a start that never checkpointed
+        folder.keep_clips(run_dir, clips, weights)
     prior_elapsed = float(meta.get("elapsed_seconds", 0.0))
     env_steps = int(meta.get("env_steps", 0))
     iterations = int(meta.get("iterations", 0))
