@@ -127,6 +127,19 @@ def test_bad_spec_files(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["broken.json"]
 
 
+@pytest.mark.parametrize("option, value, message", [
+    ("--time-limit", "0", "0: must be at least 1"), ("--runs-per-gpu", "0", "0: must be at least 1"),
+    ("--max-jobs", "x", "'x' is not an integer"), ("--gpus-per-trial", "-1", "-1: must be at least 0"),
+    ("--max-seconds", "nan", "nan: must be at least 0"),
+])
+def test_executor_options_are_refused_by_the_dry_run_too(option, value, message, capsys):
+    # the dry run used to accept what the sweep itself then refused (or, as nan, passed on)
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["sweep", str(REPO / "experiments/sweeps/laptop.json"), "--dry-run", option, value])
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.strip().endswith(f"argument {option}: {message}")
+
+
 def test_example_spec_is_valid():
     spec = sweep.load_spec(REPO / "experiments/sweeps/walk_action_mode.json", check_clips=False)
     assert [r.config.env.action_mode for r in spec.runs] == ["absolute", "residual"]

@@ -4,6 +4,7 @@ everywhere, in one line."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
 from mjxmimic.core.config import SEED_MAX
@@ -26,3 +27,18 @@ def path(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError("empty path")
     return Path(text)
+
+
+def at_least(minimum: float, kind: type = int) -> Callable[[str], float]:
+    """A count or amount option of at least `minimum` (a finite number of type `kind`), refused
+    when parsed, so that `sweep --dry-run` refuses what the sweep itself would."""
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}") from None
+        if not minimum <= value < float("inf"):
+            raise argparse.ArgumentTypeError(f"{text}: must be at least {minimum:g}")
+        return value
+
+    return parse

@@ -46,11 +46,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--gpus", default=None,
                         help="auto (default; or $MJXMIMIC_SWEEP_GPUS): one run per visible GPU at a time; "
                              "none: one after another; N: the first N GPUs; 0,2: those GPU ids")
-    parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
+    parser.add_argument("--max-seconds", type=arg_types.at_least(0, float), default=None, metavar="S",
                         help="wall-clock budget of this call (runs stop with a checkpoint; run again to go on)")
     parser.add_argument("--only", metavar="PATTERN[,PATTERN]", default=None,
                         help="run only the runs whose names match one of these shell patterns (e.g. 'walk-*')")
-    parser.add_argument("--runs-per-gpu", type=int, default=1, metavar="N",
+    parser.add_argument("--runs-per-gpu", type=arg_types.at_least(1), default=1, metavar="N",
                         help="local: N runs share each GPU at a time, each with its share of the GPU's memory")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
                         help="every run also logs to this Weights & Biases project, grouped by the sweep's name "
@@ -60,18 +60,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "through submitit (pip install 'mjxmimic[slurm]'), or a Ray Tune trial per run "
                              "(pip install 'mjxmimic[ray]')")
     parser.add_argument("--partition", default=None, help="slurm: the partition to submit to")
-    parser.add_argument("--time-limit", type=int, default=60, metavar="MIN",
+    parser.add_argument("--time-limit", type=arg_types.at_least(1), default=60, metavar="MIN",
                         help="slurm: minutes per job; a job that reaches it is requeued and resumes (default 60)")
-    parser.add_argument("--gpus-per-job", type=int, default=1, help="slurm: GPUs per job (default 1)")
-    parser.add_argument("--max-jobs", type=int, default=None, help="slurm: jobs in flight at once (default: all runs)")
+    parser.add_argument("--gpus-per-job", type=arg_types.at_least(0), default=1, help="slurm: GPUs per job (default 1)")
+    parser.add_argument("--max-jobs", type=arg_types.at_least(1), default=None, help="slurm: jobs in flight at once (default: all runs)")
     parser.add_argument("--cluster", choices=("auto", "local"), default="auto",
                         help="slurm: auto = the Slurm cluster this machine submits to; local = submitit's "
                              "local stand-in, the same jobs as processes on this machine (to try a sweep)")
     parser.add_argument("--address", default=None,
                         help="ray: the Ray cluster to run on (as `ray start` prints it; default: start a local one)")
-    parser.add_argument("--gpus-per-trial", type=float, default=None, metavar="N",
+    parser.add_argument("--gpus-per-trial", type=arg_types.at_least(0, float), default=None, metavar="N",
                         help="ray: GPUs per run (default 1 when the cluster has GPUs, else 0)")
-    parser.add_argument("--cpus-per-trial", type=float, default=1, metavar="N", help="ray: CPUs per run (default 1)")
+    parser.add_argument("--cpus-per-trial", type=arg_types.at_least(0, float), default=1, metavar="N", help="ray: CPUs per run (default 1)")
 
 
 def _echo(text: str) -> None:
