@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 
 from mjxmimic.commands.evaluate import PAPER_PUSH_N
-from mjxmimic.core.config import names_in
+from mjxmimic.core.config import has_pushes
 from mjxmimic.runs import folder
 
 BASELINES = Path(__file__).resolve().parent.parent / "skills_100m"
@@ -43,7 +43,7 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
     table6 = PAPER_PUSH_N.get(clip)
     paper = f"{table6[0]} / {table6[1]} N" if table6 else "-"
     target = f"{1.5 * table6[0]:.0f} / {1.5 * table6[1]:.0f} N" if table6 else "-"
-    pushes = "push" in names_in(config.env.events)
+    pushes = has_pushes(config.env)
     return (f"| `{run.name}` | {clip} | {'yes' if pushes else 'no'} | {config.env.pose_termination_frame} "
             f"| {config.run.total_samples / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
             f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu['nr'] / nr if cpu else float('nan'):.3f} "

@@ -23,16 +23,14 @@ import math
 import os
 import shutil
 import signal
-import sys
-import threading
 import time
-from concurrent.futures import Future
 from pathlib import Path
 from typing import Any, Callable
 
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
-from mjxmimic.runs import folder
+from mjxmimic.runs import background, folder
+from mjxmimic.runs.progress import Progress
 
 
 # a step whose loss is not finite has written NaN into the parameters
@@ -140,11 +138,11 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
         except KeyboardInterrupt:  # a second Ctrl-C: at once
             raise
         except Exception as err:  # wherever it strikes: a checkpoint, an evaluation's best, a log row
-            _wait_for_compilations()
+            background.wait_for_all()
             if not _disk_full(err):
                 raise
             raise _disk_full_error(run_dir, err) from None
-        _wait_for_compilations()
+        background.wait_for_all()
         return outcome
 
 
@@ -200,13 +198,13 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     abstract_params = export_params(trainer.abstract_state)
     lowered = (trainer.lower_train_step(), trainer.lower_reset(), evaluator.lower(abstract_params)) if under_warp \
         else (None, None, None)
-    step_compiled = _in_background(trainer.compile_train_step, lowered[0])
-    reset_compiled = _in_background(trainer.compile_reset, lowered[1])
+    step_compiled = background.in_background(trainer.compile_train_step, lowered[0])
+    reset_compiled = background.in_background(trainer.compile_reset, lowered[1])
     if under_warp:
         evaluator.compile(abstract_params, lowered[2])  # here, while the other two compile
     train_step = step_compiled.result()  # compiled once: it cannot recompile
     reset_compiled.result()
-    eval_compiled = None if under_warp else _in_background(evaluator.compile, abstract_params)
+    eval_compiled = None if under_warp else background.in_background(evaluator.compile, abstract_params)
 
     ts = trainer.init(run_cfg.seed)
     meta: dict[str, Any] = {}
@@ -320,7 +318,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     reason = "done"
     non_finite = ""
     final = None
-    bar = _Progress(progress, run_cfg.total_samples, env_steps)
+    bar = Progress(progress, run_cfg.total_samples, env_steps)
     next_eval = (last_eval_steps // run_cfg.eval_every + 1) * run_cfg.eval_every
     next_ckpt = (env_steps // run_cfg.checkpoint_every + 1) * run_cfg.checkpoint_every
     first_this_call = True
@@ -419,32 +417,6 @@ def _sweep_deadline() -> float | None:
         raise UserError(f"{folder.SWEEP_DEADLINE}={value!r}: not a time in seconds") from None
 
 
-_COMPILING: list[Future] = []  # what _in_background started
-
-
-def _in_background(fn: Callable, *args: Any) -> Future:
-    """fn(*args) in a daemon thread (XLA compiles without the GIL), so that Ctrl-C during a
-    compilation stops the command at once."""
-    future: Future = Future()
-    _COMPILING.append(future)
-
-    def work() -> None:
-        try:
-            future.set_result(fn(*args))
-        except BaseException as err:  # handed to whoever waits for the result
-            future.set_exception(err)
-
-    threading.Thread(target=work, name="mjxmimic-compile", daemon=True).start()
-    return future
-
-
-def _wait_for_compilations() -> None:
-    """Let the compilations still running finish: a daemon thread that the interpreter's exit cuts
-    off inside XLA aborts the process (exit 134 after a clean stop or a one-line error)."""
-    while _COMPILING:
-        _COMPILING.pop().exception()
-
-
 def _disk_full(err: BaseException) -> bool:
     """An error that says the disk is full (an OSError, or one a library wraps around it)."""
     return (isinstance(err, OSError) and err.errno == errno.ENOSPC) or "No space left on device" in str(err)
@@ -459,48 +431,3 @@ def _disk_full_error(run_dir: Path, err: BaseException) -> UserError:
     kept = "no checkpoint was written" if kept is None else f"the last complete checkpoint (at {kept:,} samples) is kept"
     return UserError(f"{run_dir}: the disk is full ({first_line}); training stopped, {kept}: free space, "
                      "then --resume")
-
-
-class _Progress:
-    """Progress to stderr: a rich bar (samples, samples/s, mean reward per step) when `mode` is
-    True, a plain line every 30 s when it is "plain" (logs of non-interactive runs), else nothing."""
-
-    def __init__(self, mode: bool | str, total: int, completed: int):
-        self.mode = mode
-        self.total, self.completed = total, completed
-        self._progress = None
-        self._last_line = time.time()
-
-    def __enter__(self):
-        if self.mode is True:
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self._progress = Progress(
-                TextColumn("[bold]train"), BarColumn(),
-                TextColumn("{task.completed:,.0f}/{task.total:,.0f} samples"),
-                TextColumn("{task.fields[sps]:,.0f} samples/s"),
-                TextColumn("reward {task.fields[reward]:.3f}"),
-                TimeElapsedColumn(), console=Console(stderr=True))
-            self._progress.__enter__()
-            self._task = self._progress.add_task("train", total=self.total, completed=self.completed,
-                                                 sps=0.0, reward=float("nan"))
-        return self
-
-    def update(self, completed: int, sps: float, reward: float) -> None:
-        if self._progress is not None:
-            self._progress.update(self._task, completed=completed, sps=sps, reward=reward)
-        elif self.mode == "plain" and time.time() - self._last_line >= 30.0:
-            self._last_line = time.time()
-            print(f"train: {completed:,}/{self.total:,} samples, {sps:,.0f} samples/s, reward {reward:.3f}",
-                  file=sys.stderr, flush=True)
-
-    def note(self, text: str) -> None:
-        if self._progress is not None:
-            self._progress.console.print(text)
-        elif self.mode == "plain":
-            print(f"train: {text}", file=sys.stderr, flush=True)
-
-    def __exit__(self, *exc):
-        if self._progress is not None:
-            self._progress.__exit__(*exc)
