@@ -196,7 +196,10 @@ def kept_clip_source(run_dir: Path | None) -> Path | None:
     if (dest / KEPT_DATASET).is_file():
         return dest / KEPT_DATASET
     files = sorted(dest.iterdir())
-    return files[0] if len(files) == 1 else None
+    if len(files) != 1:  # not graded silently on whatever the clip's name finds now
+        raise UserError(f"{dest}: holds {len(files)} files, not the one clip the run trained on (or "
+                        f"{KEPT_DATASET}); put it back, or remove the folder to read the clip by its name")
+    return files[0]
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
