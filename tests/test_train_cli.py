@@ -226,14 +226,16 @@ def test_a_slow_first_iteration_does_not_end_the_call_early(tmp_path, monkeypatc
 
     device_get, first = jax.device_get, []
 
-    def slow_first(tree):  # the loop fetches each iteration's metrics (a dict) with device_get
-        if isinstance(tree, dict) and not first:
-            first.append(time.sleep(4.0))  # as if the first train step had compiled
+    def slow_first(tree):  # the loop fetches each iteration's metrics (a dict of ppo/... and more) with device_get
+        if isinstance(tree, dict) and any(str(k).startswith("ppo/") for k in tree) and not first:
+            first.append(time.sleep(10.0))  # as if the first train step had compiled
         return device_get(tree)
 
     monkeypatch.setattr(jax, "device_get", slow_first)
+    # 20 s left at the start: a loop that took the first iteration (10 s and more) for the next
+    # one's would stop after it; the other nine take well under the 10 s left (on a busy machine too)
     config = _standin_config(max_seconds=30.0, eval_every=10**9, checkpoint_every=10**9)
-    out = train(config, tmp_path / "run", env=StandInEnv(), progress=False, start_time=time.time() - 22.0)
+    out = train(config, tmp_path / "run", env=StandInEnv(), progress=False, start_time=time.time() - 10.0)
     assert out.reason == "done" and out.iterations == 10, out.reason
 
 
