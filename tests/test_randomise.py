@@ -282,6 +282,44 @@ def test_runs_with_pushes_measure_the_pose_termination_from_the_root_unless_told
     assert told.env.pose_termination_frame == "world"
 
 
+def test_a_push_opens_a_settle_window_and_keeps_the_world_frame(character):
+    """env.push_settle_s: from a push until that long after its end the reference root follows the
+    character and a pose deviation ends no training episode; then the world-frame rule applies
+    again. Without it the same push ends the episode on the pose rule."""
+    from mjxmimic.envs.cpu_env import CpuEnv
+    from mjxmimic.motion.clip import load_clip_source
+
+    pushes = {"env.events": "push", "env.push_force_n": 1500.0, "env.push_interval_s": 0.5,
+              "env.action_mode": "residual", "env.pose_termination_m": 1.0}
+    clip = load_clip_source("slow_walk", character)
+
+    def pushed_run(settle_s: float) -> tuple[list, list, bool]:  # failed and settle per step; root followed
+        config = make_config("cpu", {**pushes, "env.push_settle_s": settle_s, "env.pose_termination_frame": "world"})
+        env = CpuEnv(config, character, clip)
+        env.terminations = ("pose_deviation",)  # the training rule alone: no fall ends these episodes
+        env.reset_at(0.0, event_seed=0.5)
+        failed, settle, followed = [], [], True
+        for k in range(30):  # the first push: steps 15 to 20 (0.5 to 0.7 s), unsteered
+            failed.append(bool(env.step(np.zeros(character.action_size)).failed))
+            settle.append(int(env.motion.settle))
+            if settle[-1] > 0:
+                ref, _ = env.reference(env.time)
+                followed &= bool(np.allclose(ref[0:2], env.data.qpos[0:2], atol=1e-6))
+        return failed, settle, followed
+
+    failed, settle, _ = pushed_run(0.0)
+    assert not any(failed[:15]) and any(failed[15:23]) and not any(settle)  # 1500 N carry the root 1 m off
+    failed, settle, followed = pushed_run(0.2)
+    assert settle[15:25] == [5] * 6 + [4, 3, 2, 1] and followed  # 0.2 s of control steps after the push
+    assert not any(failed[:25]) and any(failed[25:])  # the rule applies again once the window closes
+    assert make_config("cpu", {**pushes, "env.push_settle_s": 0.5}).env.pose_termination_frame == "world"
+    assert make_config("cpu", pushes).env.pose_termination_frame == "root"
+    with pytest.raises(UserError, match="'env.push_settle_s'.*set env.events=push too"):
+        make_config("cpu", {"env.push_settle_s": 0.5})
+    with pytest.raises(UserError, match="'env.push_settle_s'.*must be >= 0"):
+        make_config("cpu", {**pushes, "env.push_settle_s": -1.0})
+
+
 @pytest.mark.slow
 def test_the_env_pushes_by_the_curriculum_factor_and_keeps_it_through_restarts(character):
     """MJX: the factor in the state's info scales the push the step applies, and an episode that

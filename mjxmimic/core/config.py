@@ -85,6 +85,12 @@ class EnvConfig:
     # > 0: no pushes before this many training samples (the ramp, if any, starts here), so that a
     # policy first learns the clip as one trained without pushes does, then to withstand pushes
     push_start_samples: int = 0
+    # > 0: for this many seconds after each push (counted from its end) the reference root follows
+    # the character horizontally and a pose deviation ends no training episode, as after a skill
+    # switch, so that the pose termination may stay in the world frame (the preset's) while a push
+    # off the reference's path still teaches recovery; make_config then keeps the world frame;
+    # training only; 0 = off
+    push_settle_s: float = 0.0
     # Domain randomisation (mjxmimic.physics.randomise), per episode; (1, 1) = off. Factors (lo,
     # hi): one for every geom's sliding friction, one per body for its mass and inertia.
     friction_range: tuple[float, ...] = (1.0, 1.0)
@@ -331,7 +337,8 @@ def make_config(preset: str = "gpu", overrides: dict[str, Any] | None = None) ->
     task = (overrides or {}).get("task.name", config.task.name)
     config = apply_overrides(config, TASK_DEFAULTS.get(task, {}))
     config = apply_overrides(config, overrides or {})
-    if has_pushes(config.env) and "env.pose_termination_frame" not in (overrides or {}):
+    if (has_pushes(config.env) and config.env.push_settle_s == 0
+            and "env.pose_termination_frame" not in (overrides or {})):
         # in the world frame a push off the reference's path ends the very episodes that teach recovery
         config = apply_overrides(config, {"env.pose_termination_frame": "root"})
     return config
@@ -356,7 +363,7 @@ def evaluation_config(config: Config) -> Config:
     run's settings without what only perturbs training (episode events such as pushes, domain
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
     return apply_overrides(config, {"env.events": "", "env.push_ramp_samples": 0, "env.push_start_samples": 0,
-                                    "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
+                                    "env.push_settle_s": 0.0, "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
                                     "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0),
                                     "env.start_states_fraction": 0.0, "env.skill_switch_s": 0.0})
 

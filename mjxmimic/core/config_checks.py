@@ -67,6 +67,8 @@ def validate(config: Config) -> None:
         (env.push_start_samples >= 0, "env.push_start_samples", "must be >= 0 (0: pushes from the start)"),
         (env.push_start_samples == 0 or has_pushes(env), "env.push_start_samples",
          "delays pushes: set env.events=push too"),
+        (env.push_settle_s >= 0, "env.push_settle_s", "must be >= 0 (seconds; 0 = off)"),
+        (env.push_settle_s == 0 or has_pushes(env), "env.push_settle_s", "follows pushes: set env.events=push too"),
         (env.reset_noise_rad >= 0, "env.reset_noise_rad", "must be >= 0 (radians; 0 = off)"),
         (_scale_range_ok(env.reset_velocity_range, zero_ok=True), "env.reset_velocity_range",
          "must be two factors lo,hi with 0 <= lo <= hi (finite)"),

@@ -410,7 +410,11 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     offset = motion.root_offset
     if spec.config.reward.sync_root_position and not task.name:  # a task's reference follows the character
         offset = motion_lib.sync_root_offset(lib, clip, motion.time, t, offset, qpos[0:2], ref_qpos[0:2], xp)
-    settles = env.skill_switch_settle_s > 0  # static: the settle window's work is traced only with it
+    settles = env.skill_switch_settle_s > 0 or env.push_settle_s > 0  # static: traced only with a window
+    if env.push_settle_s > 0 and events is not None:  # a push (re)opens the window until its end + push_settle_s
+        window = xp.asarray(round(env.push_settle_s / spec.control_dt)).astype(xp.asarray(motion.settle).dtype)
+        motion = motion._replace(settle=xp.where(xp.any(events != 0), xp.maximum(motion.settle, window),
+                                                 motion.settle))
     settling = motion.settle > 0
     if settles:  # the reference root follows the character
         offset = xp.where(settling, qpos[0:2] - ref_qpos[0:2], offset)
