@@ -61,7 +61,28 @@ def test_info_on_authored_clips(capsys, name, frames, speed):
     assert info["path"] == str(PROJECT_CLIPS / f"{name}.txt")
     assert info["frames"] == frames and info["loop"] == "wrap"
     assert info["mean_speed_mps"] == pytest.approx(speed, abs=0.01)
+    assert info["path_speed_mps"] >= info["mean_speed_mps"] - 1e-6  # a straight clip: about the same
     assert abs(info["lowest_sole_m"][0]) < 0.01 and abs(info["lowest_sole_m"][1]) < 0.01
+
+
+def test_info_gives_the_path_a_turning_clip_travels(tmp_path, capsys):
+    """A clip whose root goes once round a circle of 1 m ends where it began: travel 0, path 2 pi m."""
+    import math
+
+    clip = json.loads((PROJECT_CLIPS / "slow_walk.txt").read_text())
+    frames = clip["Frames"]
+    for k, frame in enumerate(frames):
+        angle = 2 * math.pi * k / (len(frames) - 1)
+        frame[1], frame[3] = math.cos(angle), math.sin(angle)  # the root's x and its horizontal y (y-up file)
+    circle = tmp_path / "circle.txt"
+    circle.write_text(json.dumps({"Loop": "none", "Frames": frames}))
+    assert cli.main(["clips", "info", str(circle), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["root_travel_m"] < 1e-3 and info["mean_speed_mps"] < 1e-3
+    assert info["root_path_m"] == pytest.approx(2 * math.pi, rel=0.01)
+    assert info["path_speed_mps"] == pytest.approx(info["root_path_m"] / info["duration_s"], rel=1e-3)
+    assert cli.main(["clips", "info", str(circle)]) == 0
+    assert f"{info['root_path_m']:.3f} m along its path" in capsys.readouterr().out  # in words too
 
 
 def test_info_on_a_broken_file(tmp_path):

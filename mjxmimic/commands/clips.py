@@ -94,6 +94,8 @@ def clip_summary(clip, character) -> dict:
         "fps": round(clip.fps, 4),
         "root_travel_m": round(clip.root_travel, 4),
         "mean_speed_mps": round(clip.mean_speed, 4),
+        "root_path_m": round(clip.root_path, 4),
+        "path_speed_mps": round(clip.root_path / clip.duration, 4),
         "heading_change_deg": round(math.degrees(clip.heading_change), 2),
         "root_height_m": [round(float(clip.root_pos[:, 2].min()), 4),
                           round(float(clip.root_pos[:, 2].max()), 4)],
@@ -114,8 +116,9 @@ def _print_summary(s: dict) -> None:
         ("duration", f"{s['duration_s']:.3f} s"),
         ("loop", s["loop"]),
         ("frame rate", f"{s['fps']:.2f} fps"),
-        ("root travel", f"{s['root_travel_m']:.3f} m (heading change {s['heading_change_deg']:.1f} deg)"),
-        ("mean speed", f"{s['mean_speed_mps']:.3f} m/s"),
+        ("root travel", f"{s['root_travel_m']:.3f} m from first to last frame, {s['root_path_m']:.3f} m along "
+                        f"its path (heading change {s['heading_change_deg']:.1f} deg)"),
+        ("mean speed", f"{s['mean_speed_mps']:.3f} m/s first to last, {s['path_speed_mps']:.3f} m/s along the path"),
         ("root height", "{:.3f} .. {:.3f} m".format(*s["root_height_m"])),
         ("lowest point", "{:.3f} .. {:.3f} m over frames (0 = floor)".format(*s["lowest_point_m"])),
     ]

@@ -101,6 +101,12 @@ class Clip:
         return self.root_travel / self.duration
 
     @property
+    def root_path(self) -> float:
+        """Horizontal length in metres of the root's path over the frames: a clip that turns (a
+        figure of eight, a walk there and back) travels far along it and little from start to end."""
+        return float(np.linalg.norm(np.diff(self.root_pos[:, :2], axis=0), axis=1).sum())
+
+    @property
     def heading_change(self) -> float:
         """Root heading (yaw about z) at the last frame minus the first, radians in (-pi, pi]."""
         first, last = (float(quat.heading(q)) for q in (self.qpos[0, 3:7], self.qpos[-1, 3:7]))
