@@ -299,7 +299,7 @@ def test_a_push_opens_a_settle_window_and_keeps_the_world_frame(character):
         env.terminations = ("pose_deviation",)  # the training rule alone: no fall ends these episodes
         env.reset_at(0.0, event_seed=0.5)
         failed, settle, followed = [], [], True
-        for k in range(30):  # the first push: steps 15 to 20 (0.5 to 0.7 s), unsteered
+        for _ in range(30):  # the first push: steps 15 to 20 (0.5 to 0.7 s), unsteered
             failed.append(bool(env.step(np.zeros(character.action_size)).failed))
             settle.append(int(env.motion.settle))
             if settle[-1] > 0:
