@@ -550,6 +550,8 @@ def test_a_run_keeps_its_clip_so_that_it_outlives_the_original(tmp_path):
     _, kept, weights = load_env_inputs(config, run_dir)
     assert weights is None and [c.name for c in kept] == [c.name for c in before] == ["mine"]
     assert (kept[0].qpos == before[0].qpos).all() and kept[0].path == run_dir / "clips" / "mine.txt"
+    (run_dir / "clips" / ".DS_Store").write_text("")  # a hidden file beside it changes nothing
+    assert load_env_inputs(config, run_dir)[1][0].path == run_dir / "clips" / "mine.txt"
     (run_dir / "clips" / "mine.txt").unlink()  # an emptied folder is said, not read by name
     with pytest.raises(UserError, match=r"clips: holds 0 files, not the one clip the run trained on"):
         load_env_inputs(config, run_dir)

@@ -195,7 +195,7 @@ def kept_clip_source(run_dir: Path | None) -> Path | None:
         return None
     if (dest / KEPT_DATASET).is_file():
         return dest / KEPT_DATASET
-    files = sorted(dest.iterdir())
+    files = sorted(p for p in dest.iterdir() if not p.name.startswith("."))  # not a desktop's .DS_Store
     if len(files) != 1:  # not graded silently on whatever the clip's name finds now
         raise UserError(f"{dest}: holds {len(files)} files, not the one clip the run trained on (or "
                         f"{KEPT_DATASET}); put it back, or remove the folder to read the clip by its name")
