@@ -68,14 +68,13 @@ _ROWS = [
 ]
 
 
-def _run_push(args: argparse.Namespace) -> int:
+def _run_push(args: argparse.Namespace, policy_file: bool) -> int:
     from mjxmimic.core.errors import UserError
     from mjxmimic.runs.push_eval import push_test_run
 
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    policy_file = folder.names_policy_file(args.run_dir)
     result = push_test_run(args.run_dir, args.seed, args.trials, progress=say, which=args.checkpoint or "best")
     if not policy_file:  # a run folder keeps its grades; a policy file's stay on the terminal, as its NR's do
         folder.write_json_atomic(args.run_dir / "push.json", result)
@@ -120,16 +119,17 @@ def run(args: argparse.Namespace) -> int:
 
     if is_composite(args.run_dir):
         return _run_composite(args)
-    if folder.names_policy_file(args.run_dir) and args.checkpoint is not None:
+    policy_file = folder.names_policy_file(args.run_dir)
+    if policy_file and args.checkpoint is not None:
         from mjxmimic.core.errors import UserError
 
         raise UserError(f"--checkpoint is for run folders; {args.run_dir} holds one policy")
     if args.push:
-        return _run_push(args)
+        return _run_push(args, policy_file)
     from mjxmimic.runs.evaluate_run import evaluate_policy_file, evaluate_run
 
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
-    if folder.names_policy_file(args.run_dir):
+    if policy_file:
         result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say)
         title = f"{args.run_dir} ({result['clip']}, MJX)"
     else:
