@@ -156,10 +156,10 @@ def load_env_inputs(config: Config, run_dir: Any = None) -> tuple[Character, lis
     those that `run_dir` kept (mjxmimic.runs.folder.keep_clips) where it kept them."""
     from mjxmimic.motion import dataset
     from mjxmimic.motion.clip import load_clip_source
-    from mjxmimic.runs.folder import kept_clip_source
+    from mjxmimic.runs.folder import clip_source
 
     character = load_character(resolve_xml(config.character.xml))
-    source = kept_clip_source(run_dir) or config.clip.name
+    source = clip_source(config, run_dir)
     if dataset.is_dataset(source):
         data = dataset.load_dataset(source, character)
         return character, data.clips, data.weights

@@ -187,12 +187,12 @@ def keep_clips(run_dir: Path, clips: list[Any], weights: list[float] | None = No
         raise UserError(f"{dest}: cannot keep the run's clips there ({err.strerror or err})") from None
 
 
-def kept_clip_source(run_dir: Path | None) -> Path | None:
-    """What RUN trained on, as kept in RUN/clips/ (a clip file or the kept dataset), else None (a
-    run from before the folder kept them: its clip is found by name)."""
+def clip_source(config: config_lib.Config, run_dir: Path | None) -> str | Path:
+    """What a run trains on: its copy in RUN/clips/ (a clip file or the kept dataset), else
+    clip.name (no run folder, or a run from before folders kept their clips)."""
     dest = Path(run_dir) / CLIPS if run_dir is not None else None
     if dest is None or not dest.is_dir():
-        return None
+        return config.clip.name
     if (dest / KEPT_DATASET).is_file():
         return dest / KEPT_DATASET
     files = sorted(p for p in dest.iterdir() if not p.name.startswith("."))  # not a desktop's .DS_Store
@@ -313,7 +313,7 @@ def load_policy_params(run_dir: Path, observation_size: int | None = None, actio
         from mjxmimic.motion import dataset
 
         character = load_character(resolve_xml(config.character.xml))
-        source = kept_clip_source(run_dir) or config.clip.name
+        source = clip_source(config, run_dir)
         nclips = len(dataset.load_dataset(source, character).clips) if dataset.is_dataset(source) else 1
         observation_size = observation_size_of(config, character.model.nbody, nclips)
         action_size = character.action_size
