@@ -29,20 +29,20 @@ from mjxmimic.task import reward as R
 H = 1.0 / 480  # half the step of the pose's numerical derivative
 
 
-def _env(args: list[str]) -> tuple[CpuEnv, dict]:
-    """The env of a policy file's clips, or of the humanoid with the clips that --clips names."""
+def _env(args: list[str]) -> tuple[CpuEnv, dict, list[str]]:
+    """The env of a policy file's clips, or of the humanoid with the clips that --clips names; what
+    it was made from; the arguments after those."""
     if args[0] == "--clips":
         character = load_character(resolve_xml("humanoid"))
         clips = [load_clip_source(name, character) for name in args[1].split(",")]
-        return CpuEnv(evaluation_config(make_config("gpu")), character, clips), {"clips_given": args[1]}
+        return CpuEnv(evaluation_config(make_config("gpu")), character, clips), {"clips_given": args[1]}, args[2:]
     pf = load_policy_file(args[0])
-    return CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights()), {"policy": args[0]}
+    env = CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights())
+    return env, {"policy": args[0]}, args[1:]
 
 
 def main() -> None:
-    args = sys.argv[1:]
-    env, source = _env(args)
-    rest = args[2:] if args[0] == "--clips" else args[1:]
+    env, source, rest = _env(sys.argv[1:])
     samples = int(rest[0]) if rest else 600
     lib, layout, kin = env.spec.lib, env.spec.layout, env.physics.kinematics
     velocity = next(t for t in R.terms("paper") if t.name == "velocity")
