@@ -7,7 +7,8 @@
 # preset's learned std left 262 / 338 N, at the same NR. Does the backflip gain as much? bF15: the
 # backflip with a fixed std of 0.15, 100 M samples, seed 0; against b100 (learned std, 269 / 250 N
 # on MuJoCo C) and Table 6's 440 / 100 N. Graded on MJX in the call if time is left, on MuJoCo C
-# afterwards. Carried (ignored folder): .clips/ (DeepMimic's motions).
+# afterwards. Ran as one call of 391 s (428 s wall, one H100): bF15 stopped at 90 M samples;
+# its best policy (80 M) was graded on MuJoCo C on a 2-core CPU machine. Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
 export GRADE_WORKERS=$(( $(nproc) - 1 ))
