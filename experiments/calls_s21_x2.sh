@@ -14,8 +14,8 @@
 #          (learned std, 262 / 338 N on MuJoCo C)
 # Ran as: calls A (530 s, with the install; 553 s wall), B (560; 572 s) and C (PACK=policies, 536;
 # 29 s: nothing left to train) on two H200s. Call A ran this file with the spinkick (sF15, fixed
-# std 0.15) after rF30 in the second lane, and rsW first had 200 M samples here; both were changed
-# to fit the block's device time, so sF15 stopped at 73 M samples, ungraded. Records in
+# std 0.15) after rF30 in the second lane; it was taken out for calls B and C to fit the block's
+# device time, so sF15 stopped at 73 M samples, ungraded. Records in
 # experiments/robustness/world_settle/ and fixed_std/.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
