@@ -13,9 +13,10 @@
 #          fixed exploration std of 0.15 and 0.3 rad, 100 M samples, seed 0; against r100
 #          (learned std, 262 / 338 N on MuJoCo C)
 # Ran as: calls A (530 s, with the install; 553 s wall), B (560; 572 s) and C (PACK=policies, 536;
-# 29 s: nothing left to train) on two H200s. Call A ran this file with the spinkick (sF15, fixed
-# std 0.15) after rF30 in the second lane; it was taken out for calls B and C to fit the block's
-# device time, so sF15 stopped at 73 M samples, ungraded. Records in
+# 29 s: nothing left to train) on two H200s. Calls A and B ran this file as first committed, with
+# the spinkick (sF15, fixed std 0.15) after rF30 in the second lane and GRADE_MIN unset (150 s):
+# B trained sF15 to 73 M samples. It was taken out (and GRADE_MIN set) to fit the block's device
+# time, which call C ran, so sF15 stopped there, ungraded. Records in
 # experiments/robustness/world_settle/ and fixed_std/.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
