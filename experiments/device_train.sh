@@ -26,9 +26,8 @@
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
-# PACK=none: bring back only the logs, metrics, the runs' small JSON files (config, evaluation,
-# grades) and the policies that grading exported (in logs.tgz); the runs stay on the warm machine
-# for the next call.
+# PACK=none: bring back only the logs, metrics and the runs' small JSON files (config, evaluation,
+# grades; in logs.tgz); the runs stay on the warm machine for the next call.
 set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
@@ -145,7 +144,7 @@ if [ -d /tmp/bench ]; then
 fi
 if [ "${PACK:-}" = none ]; then  # one archive: $OUT brings back at most 8 files
   tar czf "$OUT/logs.tgz" -C "$OUT" --files-from <(cd "$OUT" && ls ./*.log ./*.metrics.jsonl 2>/dev/null) \
-    -C "$PWD" --files-from <(ls runs/*/*.json runs/*/*.log runs/*/policy.npz 2>/dev/null) && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl
+    -C "$PWD" --files-from <(ls runs/*/*.json runs/*/*.log 2>/dev/null) && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl
   exit 0
 fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
