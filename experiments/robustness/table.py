@@ -1,5 +1,5 @@
 """The push table of graded run records (issue 17): per run folder, its clip, samples, best
-checkpoint, NR on MJX (released form, paper form as written in brackets), CPU / MJX NR, the push
+checkpoint, the policy's exploration std there, NR on MJX (released form, paper form as written in brackets), CPU / MJX NR, the push
 test on MJX (push.json) and on MuJoCo C (push_cpu.json) beside Table 6 and 1.5 x Table 6, and
 the NR cost against the preset's 100 M policy of the clip without pushes (../skills_100m/CLIP),
 or against the runs given after --baselines (the clip's own, by its config). The files are those
@@ -31,6 +31,18 @@ def _forces(result: dict | None) -> str:
     return f"{result['push_forward_n']:.0f} / {result['push_sideways_n']:.0f} N" if result else "-"
 
 
+def _std_at(run: Path, checkpoint: int) -> str:
+    """The policy's mean std (policy/std) in the last training row logged at or before
+    `checkpoint`: what the policy had learnt to explore with when it was graded."""
+    std = None
+    with open(run / "metrics.jsonl") as rows:
+        for line in rows:
+            d = json.loads(line)
+            if "policy/std" in d and d["step"] <= checkpoint:
+                std = d["policy/std"]
+    return "-" if std is None else f"{std:.3f}"
+
+
 def row(run: Path, baselines: dict[str, Path]) -> str:
     config = folder.load_config(run)
     clip = config.clip.name
@@ -46,6 +58,7 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
     pushes = has_pushes(config.env)
     return (f"| `{run.name}` | {clip} | {'yes' if pushes else 'no'} | {config.env.pose_termination_frame} "
             f"| {config.run.total_samples / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
+            f"| {_std_at(run, best['checkpoint'])} "
             f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu['nr'] / nr if cpu else float('nan'):.3f} "
             f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} |")
 
@@ -57,9 +70,9 @@ def main() -> None:
                         help="runs without pushes, one per clip, to measure the NR cost against")
     args = parser.parse_args()
     baselines = {folder.load_config(run).clip.name: run for run in args.baselines}
-    print("| run | clip | pushes | pose termination | samples | best at | NR on MJX | NR cost | CPU / MJX "
-          "| push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 |")
-    print("|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+    print("| run | clip | pushes | pose termination | samples | best at | std there | NR on MJX | NR cost "
+          "| CPU / MJX | push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 |")
+    print("|---|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|")
     for run in args.runs:
         print(row(run, baselines))
 
