@@ -1,9 +1,9 @@
 """The push table of graded run records (issue 17): per run folder, its clip, samples, best
-checkpoint, the policy's exploration std there, NR on MJX (released form, paper form as written in brackets), CPU / MJX NR, the push
-test on MJX (push.json) and on MuJoCo C (push_cpu.json) beside Table 6 and 1.5 x Table 6, and
-the NR cost against the preset's 100 M policy of the clip without pushes (../skills_100m/CLIP),
-or against the runs given after --baselines (the clip's own, by its config). The files are those
-that `experiments/device_train.sh`'s grade_NAME writes.
+checkpoint, the policy's exploration std there, NR on MJX (released form, paper form as written
+in brackets), CPU / MJX NR, the push test on MJX (push.json) and on MuJoCo C (push_cpu.json)
+beside Table 6 and 1.5 x Table 6, and the NR cost against the preset's 100 M policy of the clip
+without pushes (../skills_100m/CLIP), or against the runs given after --baselines (the clip's
+own, by its config). The files are those that `experiments/device_train.sh`'s grade_NAME writes.
 
     python experiments/robustness/table.py experiments/robustness/root_frame/*
     python experiments/robustness/table.py experiments/robustness/sideways/* --baselines \
@@ -18,7 +18,7 @@ from pathlib import Path
 
 from mjxmimic.commands.evaluate import PAPER_PUSH_N
 from mjxmimic.core.config import has_pushes
-from mjxmimic.runs import folder
+from mjxmimic.runs import folder, metrics_log
 
 BASELINES = Path(__file__).resolve().parent.parent / "skills_100m"
 
@@ -34,13 +34,8 @@ def _forces(result: dict | None) -> str:
 def _std_at(run: Path, checkpoint: int) -> str:
     """The policy's mean std (policy/std) in the last training row logged at or before
     `checkpoint`: what the policy had learnt to explore with when it was graded."""
-    std = None
-    with open(run / "metrics.jsonl") as rows:
-        for line in rows:
-            d = json.loads(line)
-            if "policy/std" in d and d["step"] <= checkpoint:
-                std = d["policy/std"]
-    return "-" if std is None else f"{std:.3f}"
+    stds = [d["policy/std"] for d in metrics_log.read(run) if "policy/std" in d and d["step"] <= checkpoint]
+    return f"{stds[-1]:.3f}" if stds else "-"
 
 
 def row(run: Path, baselines: dict[str, Path]) -> str:
