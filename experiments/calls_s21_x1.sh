@@ -8,7 +8,8 @@
 # backflip with a fixed std of 0.15, 100 M samples, seed 0; against b100 (learned std, 269 / 250 N
 # on MuJoCo C) and Table 6's 440 / 100 N. Graded on MJX in the call if time is left, on MuJoCo C
 # afterwards. Ran as one call of 391 s (428 s wall, one H100): bF15 stopped at 90 M samples;
-# its best policy (80 M) was graded on MuJoCo C on a 2-core CPU machine. Carried (ignored folder): .clips/ (DeepMimic's motions).
+# its best policy (80 M) was graded on MuJoCo C on a 2-core CPU machine.
+# Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
 export GRADE_WORKERS=$(( $(nproc) - 1 ))
