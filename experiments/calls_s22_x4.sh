@@ -16,6 +16,9 @@
 #   rF15_s1     rF15's second seed
 #   bF20, rF20, cF20  the backflip, the run and the cartwheel on a fixed std of 0.2, 100 M, where
 #               their lanes have time left
+# Ran as: calls A (530 s, with the install; 548 s wall), B (560; 588 s) and C (PACK=policies,
+# 459; 322 s) on four H200s (asked for as nvidia-h100-x4). Records in
+# experiments/robustness/fixed_std/.
 # Seed 0 unless named. Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
