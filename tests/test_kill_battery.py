@@ -21,10 +21,11 @@ DRIVER = f"""
 import sys
 from pathlib import Path
 sys.path.insert(0, {str(TESTS)!r})
-from mjxmimic.core import config as config_lib
+from mjxmimic.core import compile_cache, config as config_lib
 from mjxmimic.runs.train_loop import train
 from standin_env import StandInEnv
 
+compile_cache.enable()  # as `mjxmimic train` does: a resumed run loads its programs from the cache
 run_dir = Path(sys.argv[1])
 config = config_lib.make_config("cpu", {{"run.total_samples": {TOTAL}, "run.eval_every": 20480,
                                         "run.checkpoint_every": 2048, "run.eval_at_start": "false"}})
