@@ -47,6 +47,7 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
     base = baselines.get(clip, BASELINES / clip)
     baseline = folder.read_best(base) if base.is_dir() else None
     cost = f"{baseline['eval']['nr'] - nr:.3f}" if baseline else "-"
+    cpu_ratio = f"{cpu['nr'] / nr:.3f}" if cpu else "-"
     table6 = PAPER_PUSH_N.get(clip)
     paper = f"{table6[0]} / {table6[1]} N" if table6 else "-"
     target = f"{1.5 * table6[0]:.0f} / {1.5 * table6[1]:.0f} N" if table6 else "-"
@@ -54,7 +55,7 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
     return (f"| `{run.name}` | {clip} | {'yes' if pushes else 'no'} | {config.env.pose_termination_frame} "
             f"| {config.run.total_samples / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
             f"| {_std_at(run, best['checkpoint'])} "
-            f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu['nr'] / nr if cpu else float('nan'):.3f} "
+            f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu_ratio} "
             f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} |")
 
 
