@@ -16,9 +16,10 @@
 #   bF25      the backflip on std 0.25
 #   cF25, cF30  the cartwheel on std 0.25 and 0.3 (std 0.2: 494 / 381 N against 200 / 470 N)
 # Ran as: calls A (530 s, with the install; 548 s wall), B (560; stopped at the device tool's
-# 600 s limit before it packed its logs, which did not come back; the runs on the machine were intact)
-# and C (PACK=policies, 280; 310 s) on four H200s (asked for as nvidia-h100-x4). The MuJoCo C
-# tests that call C had no time for ran on a 2-core CPU machine afterwards (bF25, ccR2_s1's NR).
+# 600 s limit before it packed its logs, which did not come back; the runs on the machine were
+# intact) and C (PACK=policies, 280; 310 s) on four H200s (asked for as nvidia-h100-x4). The
+# MuJoCo C tests that call C had no time for ran on a 2-core CPU machine afterwards (the push
+# tests of bF25, bF20_s1, cF25 and cF30; the NRs of those and of ccR2_s1).
 # Records in experiments/robustness/second_seed/ and fixed_std/.
 # Seed 0 unless named. Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
