@@ -11,8 +11,8 @@
 #               on MuJoCo C at a cost of 0.012) and rcL3's (every 3 to 4 s: 1038 N at 0.024),
 #               200 M samples, against r200 (0.910) and rF200
 #   rF200       the run on a fixed std of 0.15 without pushes, 200 M samples
-#   cF15        Table 6 without push training: the cartwheel on a fixed std of 0.15 (the preset's 100 M cartwheel has
-#               331 / 281 N against Table 6's 200 / 470 N), 100 M
+#   cF15        Table 6 without push training: the cartwheel on a fixed std of 0.15 (the
+#               preset's 100 M cartwheel has 331 / 281 N against Table 6's 200 / 470 N), 100 M
 #   rF15_s1     rF15's second seed
 #   bF20, rF20, cF20  the backflip, the run and the cartwheel on a fixed std of 0.2, 100 M, where
 #               their lanes have time left
