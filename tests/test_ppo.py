@@ -277,9 +277,12 @@ def test_the_push_curriculum_ramps_with_the_samples_trained():
 @pytest.mark.parametrize("keys, expected", [
     ({"env.push_start_samples": 1024}, [0.0, 0.0, 1.0, 1.0]),  # no ramp: full pushes from the start sample on
     ({"env.push_start_samples": 512, "env.push_ramp_samples": 1024}, [0.0, 0.0, 0.5, 1.0]),
+    ({"env.push_start_samples": 512, "env.push_stop_samples": 1536}, [0.0, 1.0, 1.0, 0.0]),
+    ({"env.push_ramp_samples": 512, "env.push_stop_samples": 1024}, [0.0, 1.0, 0.0, 0.0]),
 ])
-def test_pushes_can_start_late(keys, expected):
-    """env.push_start_samples: no pushes before it; the ramp, if any, starts there."""
+def test_pushes_can_start_late_and_stop_early(keys, expected):
+    """env.push_start_samples: no pushes before it; the ramp, if any, starts there;
+    env.push_stop_samples: none from it on."""
     config = make_config("cpu", {"env.events": "push", "env.push_force_n": 100, **keys})  # 512 samples an iteration
     seen, = _metrics_of_steps(make_trainer(SeesPushScale(), config), 4, "seen_scale")
     assert seen == expected

@@ -34,6 +34,11 @@ RANDOMISED = {"env.friction_range": "0.3,0.6", "env.mass_range": "0.5,2.0"}
     ("env.push_ramp_samples", 1000, "env.push_ramp_samples", "set env.events=push too"),
     ("env.push_start_samples", -1, "env.push_start_samples", "must be >= 0"),
     ("env.push_start_samples", 1000, "env.push_start_samples", "set env.events=push too"),
+    ("env.push_stop_samples", -1, "env.push_stop_samples", "must be >= 0"),
+    ("env.push_stop_samples", 1000, "env.push_stop_samples", "set env.events=push too"),
+    ("env.push_episode_share", 0.0, "env.push_episode_share", "must be in \\(0, 1\\]"),
+    ("env.push_episode_share", 1.5, "env.push_episode_share", "must be in \\(0, 1\\]"),
+    ("env.push_episode_share", 0.5, "env.push_episode_share", "set env.events=push too"),
     ("env.reset_noise_rad", -0.1, "env.reset_noise_rad", "must be >= 0"),
     ("env.reset_velocity_range", "0.5,0.2", "env.reset_velocity_range", "0 <= lo <= hi"),
     ("env.reset_velocity_range", "-0.1,1", "env.reset_velocity_range", "0 <= lo <= hi"),
@@ -275,6 +280,33 @@ def test_the_curriculum_scales_every_push():
     assert events.external_force(("push",), env, 2.05, 0.3, 3, np, qpos, 0.5) == pytest.approx(0.5 * full)
 
 
+def test_pushes_stop_only_after_the_full_pushes_have_come():
+    with pytest.raises(UserError, match="'env.push_stop_samples'.*after env.push_start_samples"):
+        make_config("cpu", {"env.events": "push", "env.push_force_n": 300.0, "env.push_start_samples": 1000,
+                            "env.push_ramp_samples": 1000, "env.push_stop_samples": 2000})
+
+
+def test_a_share_of_the_episodes_is_pushed_picked_by_the_event_seed():
+    """env.push_episode_share: an episode is pushed at every push time or at none, by its event
+    seed alone, the share of episodes pushed is the one asked for, and MJX agrees with numpy."""
+    every = make_config("cpu", {"env.events": "push", "env.push_force_n": 300.0}).env
+    half = make_config("cpu", {"env.events": "push", "env.push_force_n": 300.0, "env.push_episode_share": 0.5}).env
+    times = 2.05 + 2.0 * np.arange(5)  # inside the pushes of intervals 1 to 5
+    pushed = []
+    for seed in np.linspace(0.0, 1.0, 1000, endpoint=False):
+        forces = [np.abs(events.push(half, t, seed, 3, np)).max() for t in times]
+        assert all(f == 0 for f in forces) or all(f > 0 for f in forces)  # the whole episode or none
+        pushed.append(forces[0] > 0)
+        if pushed[-1]:
+            np.testing.assert_array_equal(events.push(half, 2.05, seed, 3, np), events.push(every, 2.05, seed, 3, np))
+    assert np.mean(pushed) == pytest.approx(0.5, abs=0.02)
+    both = [(s, jax.jit(lambda s: events.push(half, jnp.float32(2.05), s, 3, jnp))(jnp.float32(s)))
+            for s in (0.01, 0.02, 0.03, 0.3, 0.6, 0.9)]
+    assert {bool(np.abs(np.asarray(m)).max() > 0) for _, m in both} == {True, False}
+    for s, m in both:
+        np.testing.assert_allclose(np.asarray(m), events.push(half, 2.05, s, 3, np), rtol=1e-4, atol=1e-3)
+
+
 def test_runs_with_pushes_measure_the_pose_termination_from_the_root_unless_told():
     assert make_config("gpu").env.pose_termination_frame == "world"
     assert make_config("gpu", {"env.events": "push", "env.push_force_n": 100}).env.pose_termination_frame == "root"
@@ -402,6 +434,8 @@ def test_training_perturbations_stay_out_of_evaluation(tmp_path, monkeypatch):
     assert (graded.env.events, graded.env.friction_range, graded.env.mass_range) == ("", (1.0, 1.0), (1.0, 1.0))
     assert evaluation_config(apply_overrides(config, {"env.push_ramp_samples": 1000})) == graded
     assert evaluation_config(apply_overrides(config, {"env.push_start_samples": 1000})) == graded
+    assert evaluation_config(apply_overrides(config, {"env.push_stop_samples": 1000})) == graded
+    assert evaluation_config(apply_overrides(config, {"env.push_episode_share": 0.5})) == graded
     assert graded.env.reset_noise_rad == 0.0
     assert graded.ppo == config.ppo and graded.env.control_hz == config.env.control_hz
     assert evaluation_config(graded) == graded

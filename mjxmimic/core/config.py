@@ -85,6 +85,12 @@ class EnvConfig:
     # > 0: no pushes before this many training samples (the ramp, if any, starts here), so that a
     # policy first learns the clip as one trained without pushes does, then to withstand pushes
     push_start_samples: int = 0
+    # > 0: no pushes from this many training samples on, so that a push-trained policy ends its
+    # training on the clip alone (the NR is graded without pushes); 0: pushes to the end
+    push_stop_samples: int = 0
+    # the share of training episodes that are pushed at all (drawn from each episode's event seed),
+    # so that the rest keep teaching the clip as it is graded; 1: every episode
+    push_episode_share: float = 1.0
     # > 0: for this many seconds after each push (counted from its end) the reference root follows
     # the character horizontally and a pose deviation ends no training episode, as after a skill
     # switch, so that the pose termination may stay in the world frame (the preset's) while a push
@@ -354,8 +360,8 @@ def has_pushes(env: EnvConfig) -> bool:
 
 
 def push_curriculum(env: EnvConfig) -> bool:
-    """Whether the trainer scales the pushes by training progress (a ramp, a late start or both)."""
-    return env.push_ramp_samples > 0 or env.push_start_samples > 0
+    """Whether the trainer scales the pushes by training progress (a ramp, a late start, an early stop)."""
+    return env.push_ramp_samples > 0 or env.push_start_samples > 0 or env.push_stop_samples > 0
 
 
 def evaluation_config(config: Config) -> Config:
@@ -363,7 +369,8 @@ def evaluation_config(config: Config) -> Config:
     run's settings without what only perturbs training (episode events such as pushes, domain
     randomisation, reset noise), so that a policy trained with them is graded as any other."""
     return apply_overrides(config, {"env.events": "", "env.push_ramp_samples": 0, "env.push_start_samples": 0,
-                                    "env.push_settle_s": 0.0, "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
+                                    "env.push_stop_samples": 0, "env.push_episode_share": 1.0, "env.push_settle_s": 0.0,
+                                    "env.friction_range": (1.0, 1.0), "env.mass_range": (1.0, 1.0),
                                     "env.reset_noise_rad": 0.0, "env.reset_velocity_range": (1.0, 1.0),
                                     "env.start_states_fraction": 0.0, "env.skill_switch_s": 0.0})
 

@@ -127,7 +127,8 @@ def schedule_values(config: Config) -> dict[str, np.ndarray]:
             "learning_rate": np.float32(config.ppo.learning_rate),
             "learning_rate_final": np.float32(config.ppo.learning_rate_final),
             "push_ramp_samples": np.float32(config.env.push_ramp_samples),
-            "push_start_samples": np.float32(config.env.push_start_samples)}
+            "push_start_samples": np.float32(config.env.push_start_samples),
+            "push_stop_samples": np.float32(config.env.push_stop_samples)}
 
 
 def learning_rate_at(config: Config, samples: jax.Array, values: dict | None = None) -> jax.Array:
@@ -310,12 +311,15 @@ class Trainer:
     def _curriculum(self, env_state: Any, samples: jax.Array, values: dict) -> tuple[Any, dict]:
         """The env states with this iteration's push curriculum factor (0 before
         env.push_start_samples, then rising over env.push_ramp_samples to 1, at once without a
-        ramp), and the factor as a metric; unchanged without a curriculum."""
+        ramp, 0 again from env.push_stop_samples if set), and the factor as a metric; unchanged
+        without a curriculum."""
         if not push_curriculum(self.config.env):
             return env_state, {}
         ramp, late = values["push_ramp_samples"], samples - values["push_start_samples"]
         ramped = jnp.clip(late / jnp.maximum(ramp, 1.0), 0.0, 1.0)
         scale = jnp.where(ramp > 0, ramped, (late >= 0).astype(jnp.float32))
+        stop = values["push_stop_samples"]
+        scale = jnp.where((stop > 0) & (samples >= stop), 0.0, scale)
         info = dict(env_state.info, **{PUSH_SCALE: jnp.full_like(env_state.info[PUSH_SCALE], scale)})
         return env_state.replace(info=info), {"curriculum/push_scale": scale}
 

@@ -12,7 +12,8 @@ push's force lies in [push_force_n, push_force_max_n], and with `env.push_interv
 starts up to that long after its interval's start, each by a sequence of its own of the same
 kind (`sequence`). With `env.push_ramp_samples` the trainer scales every push by its
 curriculum's factor (`scale`), from 0 at the start of training (or at `env.push_start_samples`)
-to 1.
+to 1, and back to 0 at `env.push_stop_samples`. With `env.push_episode_share` below 1 only that
+share of the episodes is pushed at all, picked by the event seed.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ GOLDEN = 0.6180339887498949
 DIRECTION = (1.0, GOLDEN)
 FORCE = (11.0, PLASTIC)
 DELAY = (13.0, PLASTIC * PLASTIC)
+PUSHED = (17.0, 0.0)  # one number per episode: pushed at all if below env.push_episode_share
 
 
 def sequence(which: tuple[float, float], event_seed: Any, k: Any) -> Any:
@@ -56,6 +58,8 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
     if env.push_force_max_n > 0:
         force = force + (env.push_force_max_n - env.push_force_n) * sequence(FORCE, event_seed, k)
     force = force * scale
+    if env.push_episode_share < 1.0:  # a config constant: no work in the step when every episode is pushed
+        force = force * (sequence(PUSHED, event_seed, 0.0) < env.push_episode_share)
     u = sequence(DIRECTION, event_seed, k)
     if env.push_directions == "table6":  # forward half the time, else to the left or to the right
         turn = xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
