@@ -17,6 +17,11 @@
 #   bF25_s1   the backflip without pushes on a fixed std of 0.25 (seed 0: 562 / 325 N), 100 M
 # and the spinkick without pushes on a fixed std of 0.2, its preset's starting std (sF20, 100 M;
 # on 0.15 it learned worse, sF15).
+# Ran as: calls A (530 s, with the install; 548 s wall), B (530; 559 s) and C (PACK=policies,
+# 440; 475 s) on four H200s (asked for as nvidia-h200-x4). Call C packed the policies before every
+# MuJoCo C test had run: the NRs on MuJoCo C of all eight runs and the push tests of bF25_s1,
+# kcR_s1 and sF20 ran on a 2-core CPU machine afterwards.
+# Records in experiments/robustness/push_share_stop/, second_seed/ and fixed_std/.
 # Seed 0 unless named. Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
