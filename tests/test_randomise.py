@@ -300,8 +300,8 @@ def test_a_share_of_the_episodes_is_pushed_picked_by_the_event_seed():
         if pushed[-1]:
             np.testing.assert_array_equal(events.push(half, 2.05, seed, 3, np), events.push(every, 2.05, seed, 3, np))
     assert np.mean(pushed) == pytest.approx(0.5, abs=0.02)
-    both = [(s, jax.jit(lambda s: events.push(half, jnp.float32(2.05), s, 3, jnp))(jnp.float32(s)))
-            for s in (0.01, 0.02, 0.03, 0.3, 0.6, 0.9)]
+    on_mjx = jax.jit(lambda s: events.push(half, jnp.float32(2.05), s, 3, jnp))
+    both = [(s, on_mjx(jnp.float32(s))) for s in (0.01, 0.02, 0.03, 0.3, 0.6, 0.9)]
     assert {bool(np.abs(np.asarray(m)).max() > 0) for _, m in both} == {True, False}
     for s, m in both:
         np.testing.assert_allclose(np.asarray(m), events.push(half, 2.05, s, 3, np), rtol=1e-4, atol=1e-3)

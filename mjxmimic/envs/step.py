@@ -277,6 +277,7 @@ def start_state(spec: Spec, clip: Any, t: Any, event_seed: Any, xp: Any) -> tupl
 RESET_NOISE_DRAWS = 1 << 20  # where the reset noise's draws start in the event seed's stream (randomise.uniform)
 RESET_VELOCITY_DRAW = (1 << 20) - 1  # the reset velocity factor's draw, before the noise's
 START_BANK_DRAWS = (1 << 20) - 3  # whether, and which, start state of the bank: two draws before that
+# task.events.PUSHED_DRAW, (1 << 20) - 4, is whether an episode is pushed at all
 
 
 def from_bank(spec: Spec, clip: Any, t: Any, qpos: Any, qvel: Any, event_seed: Any, xp: Any) -> tuple[Any, ...]:

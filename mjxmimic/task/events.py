@@ -22,6 +22,7 @@ from typing import Any, Callable
 
 from mjxmimic.core.config import EnvConfig, names_in
 from mjxmimic.core.errors import UserError
+from mjxmimic.physics import randomise
 from mjxmimic.task import push_protocol
 from mjxmimic.task.goals import PLASTIC
 
@@ -36,7 +37,9 @@ GOLDEN = 0.6180339887498949
 DIRECTION = (1.0, GOLDEN)
 FORCE = (11.0, PLASTIC)
 DELAY = (13.0, PLASTIC * PLASTIC)
-PUSHED = (17.0, 0.0)  # one number per episode: pushed at all if below env.push_episode_share
+# whether an episode is pushed at all (env.push_episode_share): one draw of the event seed's stream
+# (randomise.uniform), independent of the pushes' sequences; just before envs.step's START_BANK_DRAWS
+PUSHED_DRAW = (1 << 20) - 4
 
 
 def sequence(which: tuple[float, float], event_seed: Any, k: Any) -> Any:
@@ -59,7 +62,7 @@ def push(env: EnvConfig, episode_time: Any, event_seed: Any, nbody: int, xp: Any
         force = force + (env.push_force_max_n - env.push_force_n) * sequence(FORCE, event_seed, k)
     force = force * scale
     if env.push_episode_share < 1.0:  # a config constant: no work in the step when every episode is pushed
-        force = force * (sequence(PUSHED, event_seed, 0.0) < env.push_episode_share)
+        force = force * (randomise.uniform(event_seed, 1, xp, first=PUSHED_DRAW)[0] < env.push_episode_share)
     u = sequence(DIRECTION, event_seed, k)
     if env.push_directions == "table6":  # forward half the time, else to the left or to the right
         turn = xp.where(u < 0.5, 0.0, xp.where(u < 0.75, 0.5, -0.5) * xp.pi)
