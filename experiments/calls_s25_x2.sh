@@ -13,6 +13,10 @@
 # 444 N against 200 / 470 N):
 #   c200_s1   the preset's cartwheel, seed 1, 200 M
 #   cF30_s1   the cartwheel without pushes on a fixed std of 0.3, seed 1, 100 M
+# Ran as: calls A (530 s, with the install; 566 s wall), B (530; 557 s) and C (PACK=policies, 505;
+# 467 s) on two H200s (asked for as nvidia-h200-x2). c200_s1 ended too late in call C for its
+# grade: its MuJoCo C tests ran on a 2-core CPU machine afterwards, and it has no MJX push test.
+# Records in experiments/robustness/push_share_stop/, second_seed/ and fixed_std/.
 # Seed 0 unless named. Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
