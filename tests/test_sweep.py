@@ -81,6 +81,26 @@ def test_defaults_and_names(tmp_path):
     assert spec.out == tmp_path / "o"
 
 
+def test_a_labelled_runs_entry_is_named_by_its_label(tmp_path):
+    spec = sweep.load_spec(write_spec(
+        tmp_path / "l.json", preset="cpu", grid={"ppo.learning_rate": [1e-3]},
+        runs=[{"label": "pushes", "env.events": "push", "env.push_force_max_n": 300}, {"label": "plain"},
+              {"ppo.num_envs": 64}]))
+    assert [r.name for r in spec.runs] == ["slow_walk-learning_rate=0.001-pushes-s0",
+                                           "slow_walk-learning_rate=0.001-plain-s0",
+                                           "slow_walk-learning_rate=0.001-num_envs=64-s0"]
+    assert spec.runs[0].config.env.push_force_max_n == 300 and spec.runs[1].config.env.events == ""
+    assert "label" not in spec.runs[0].args and "label" not in spec.varying_keys
+
+
+def test_every_shipped_spec_is_valid():
+    paths = sorted((REPO / "experiments/sweeps").glob("*.json"))
+    assert len(paths) >= 5
+    for path in paths:
+        spec = sweep.load_spec(path, check_clips=False)
+        assert spec.runs and len({r.name for r in spec.runs}) == len(spec.runs), path.name
+
+
 BAD_SPECS = [
     ({"preset": "cpu", "grid": {"ppo.learnin_rate": [1e-3]}}, "ppo.learnin_rate"),
     ({"preset": "cpu", "set": {"env.nosuch": 1}}, "env.nosuch"),
@@ -101,6 +121,9 @@ BAD_SPECS = [
     ({"preset": "cpu", "gird": {"ppo.num_envs": [8]}}, "gird"),
     ({"preset": "cpu", "set": {"ppo.num_envs": {"a": 1}}}, "ppo.num_envs"),
     ([1, 2], "JSON object"),
+    ({"preset": "cpu", "runs": [{"label": "a b"}]}, '"label"'),
+    ({"preset": "cpu", "runs": [{"label": 3}]}, '"label"'),
+    ({"preset": "cpu", "runs": [{"label": "x"}, {"label": "x", "ppo.num_envs": 64}]}, '"label"'),
 ]
 
 

@@ -26,7 +26,8 @@ only found by its run (which then fails alone).
 
 Run names are derived from the clip, the run's own grid/runs overrides and the seed, e.g.
 `walk-action_mode=residual-s0` (the full key where two keys share a last part; a short hash
-where names would collide or grow past 100 characters).
+where names would collide or grow past 100 characters). A runs entry of many keys may name
+itself instead: `{"label": "pushes", "env.events": "push", ...}` gives `run-pushes-s0`.
 
 Folder OUT/ holds:
     NAME-OF-RUN/    a normal `mjxmimic train` run folder per run

@@ -24,6 +24,7 @@ RAY_SCHEDULERS = ("asha",)
 RAY_METRICS = ("eval/nr", "eval/fall_rate")
 MAX_NAME = 100
 _SAFE = re.compile(r"[^A-Za-z0-9._=+-]+")
+_LABEL = re.compile(r"[A-Za-z0-9][A-Za-z0-9._=+-]{0,39}")
 
 
 # ---- the spec ---------------------------------------------------------------------------------
@@ -128,6 +129,17 @@ def _overrides(obj: Any, where: str) -> dict[str, Any]:
             raise _SpecError(f"{where}: config key {key!r}: {err}") from None
         out[key] = value
     return out
+
+
+def _runs_entry(obj: Any, where: str) -> tuple[str | None, dict[str, Any]]:
+    """A runs entry's "label" (its part of the run names instead of its key=value pairs, for an
+    entry of many keys) and its overrides."""
+    if not isinstance(obj, dict) or "label" not in obj:
+        return None, _overrides(obj, where)
+    label = obj["label"]
+    if not isinstance(label, str) or not _LABEL.fullmatch(label):
+        raise _SpecError(f'{where}: "label": expected a name of letters, digits, ".", "_", "=", "+" or "-"')
+    return label, _overrides({k: v for k, v in obj.items() if k != "label"}, where)
 
 
 def _origin(message: str, common: dict, grid: dict, index: int, entry: dict) -> str:
@@ -256,10 +268,16 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
             grid[key] = values
 
     entries: list[dict[str, Any]] = [{}]
+    entry_labels: list[str | None] = [None]
     if "runs" in raw:
         if not isinstance(raw["runs"], list) or not raw["runs"]:
             raise _SpecError("runs: expected a non-empty list of override objects")
-        entries = [_overrides(e, f"runs[{i}]") for i, e in enumerate(raw["runs"])]
+        labelled = [_runs_entry(e, f"runs[{i}]") for i, e in enumerate(raw["runs"])]
+        entry_labels = [label for label, _ in labelled]
+        entries = [entry for _, entry in labelled]
+        given = [label for label in entry_labels if label is not None]
+        if len(set(given)) < len(given):
+            raise _SpecError('runs: two entries have the same "label"')
         for i, entry in enumerate(entries):
             for key in entry:
                 if key in common:
@@ -295,8 +313,11 @@ def _expand(path: Path, raw: Any, out: str | Path | None, check_clips: bool) -> 
                 for ei, entry in enumerate(entries):
                     own = {**dict(zip(keys, combo)), **entry}
                     args = {k: cli_value(v) for k, v in {**common, **own}.items()}
-                    label = "-".join([clip_label(clip)] + [f"{label_key[k]}={_label_value(v)}"
-                                                            for k, v in own.items()] + [f"s{seed}"])
+                    named = own if entry_labels[ei] is None else dict(zip(keys, combo))
+                    parts = [f"{label_key[k]}={_label_value(v)}" for k, v in named.items()]
+                    if entry_labels[ei] is not None:
+                        parts.append(entry_labels[ei])
+                    label = "-".join([clip_label(clip)] + parts + [f"s{seed}"])
                     label = _SAFE.sub("_", label).strip("._") or "run"
                     identity = json.dumps([clip, sorted(args.items()), seed])
                     if identity in seen:
