@@ -99,8 +99,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         from mjxmimic.motion.clip import clip_label
 
         run_dir = Path("runs") / f"{clip_label(config.clip.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
-    if Path(run_dir).exists() and not Path(run_dir).is_dir():  # refused before the env is built
-        raise UserError(f"{run_dir}: exists and is not a folder")
+    folder.refuse_non_folder(run_dir)  # before the env is built
     if folder.holds_run(run_dir):
         raise UserError(f"{run_dir}: already holds a run (continue it with --resume {run_dir})")
     return config, run_dir, False

@@ -117,6 +117,13 @@ STOP_WITH_PARENT = "MJXMIMIC_STOP_WITH_PARENT"
 SWEEP_DEADLINE = "MJXMIMIC_SWEEP_DEADLINE"
 
 
+def refuse_non_folder(run_dir: Path) -> None:
+    """A one-line error when RUN names something that is not a folder (a new run's --out may not
+    exist yet)."""
+    if Path(run_dir).exists() and not Path(run_dir).is_dir():
+        raise UserError(f"{run_dir}: exists and is not a folder")
+
+
 @contextlib.contextmanager
 def writer_lock(run_dir: Path) -> Iterator[None]:
     """Hold RUN/.lock while this process writes the run: a second writer gets a one-line error
@@ -125,8 +132,7 @@ def writer_lock(run_dir: Path) -> Iterator[None]:
     import fcntl
 
     run_dir = Path(run_dir)
-    if run_dir.exists() and not run_dir.is_dir():
-        raise UserError(f"{run_dir}: exists and is not a folder")
+    refuse_non_folder(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     handle = (run_dir / ".lock").open("a+")
     try:
