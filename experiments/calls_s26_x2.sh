@@ -11,6 +11,10 @@
 #   bcSY[_s1]    bcS's settings, pushes stopped at 180 M, up to 730 N instead of 660 N
 #   ccR2Y[_s1]   ccR2's settings, pushes stopped at 180 M, up to 780 N instead of 705 N
 # Seed 1 first (where the costs were). Carried (ignored folder): .clips/ (DeepMimic's motions).
+# Ran as: calls A (530 s, with the install; 548 s wall), B (530; 557 s) and C (PACK=policies, 500;
+# 526 s) on two H200s (asked for as nvidia-h200-x2). The cartwheels ended in call C with time for
+# their MJX push test only: their MuJoCo C tests ran on a 2-core CPU machine afterwards.
+# Records in experiments/robustness/push_share_stop/.
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
 export GRADE_WORKERS=$(( $(nproc) / 2 - 1 ))

@@ -1,9 +1,10 @@
 """The push table of graded run records (issue 17): per run folder, its clip, samples, best
 checkpoint, the policy's exploration std there, NR on MJX (released form, paper form as written
 in brackets), CPU / MJX NR, the push test on MJX (push.json) and on MuJoCo C (push_cpu.json)
-beside Table 6 and 1.5 x Table 6, and the NR cost against the preset's 100 M policy of the clip
+beside Table 6 and 1.5 x Table 6, the NR cost against the preset's 100 M policy of the clip
 without pushes (../skills_100m/CLIP), or against the runs given after --baselines (the clip's
-own, by its config). The files are those that `experiments/device_train.sh`'s grade_NAME writes.
+own, by its config), and the mean NR of the last five evaluations with its cost against the
+baseline's (less hostage to one lucky evaluation than the best checkpoint). The files are those that `experiments/device_train.sh`'s grade_NAME writes.
 
     python experiments/robustness/table.py experiments/robustness/root_frame/*
     python experiments/robustness/table.py experiments/robustness/sideways/* --baselines \
@@ -38,6 +39,14 @@ def _std_at(run: Path, checkpoint: int) -> str:
     return f"{stds[-1]:.3f}" if stds else "-"
 
 
+def _last_evals_mean(run: Path, count: int = 5) -> float:
+    """The mean released-form NR of the run's last `count` evaluations (one per step: a resumed
+    run's log may hold a step twice)."""
+    by_step = {d["step"]: d["eval/nr"] for d in metrics_log.read(run) if "eval/nr" in d}
+    last = [by_step[step] for step in sorted(by_step)[-count:]]
+    return sum(last) / len(last)
+
+
 def row(run: Path, baselines: dict[str, Path]) -> str:
     config = folder.load_config(run)
     clip = config.clip.name
@@ -47,6 +56,8 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
     base = baselines.get(clip, BASELINES / clip)
     baseline = folder.read_best(base) if base.is_dir() else None
     cost = f"{baseline['eval']['nr'] - nr:.3f}" if baseline else "-"
+    last = _last_evals_mean(run)
+    last_cost = f" ({_last_evals_mean(base) - last:.3f})" if baseline else ""
     cpu_ratio = f"{cpu['nr'] / nr:.3f}" if cpu else "-"
     table6 = PAPER_PUSH_N.get(clip)
     paper = f"{table6[0]} / {table6[1]} N" if table6 else "-"
@@ -56,7 +67,8 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
             f"| {config.run.total_samples / 1e6:.0f} M | {best['checkpoint'] / 1e6:.0f} M "
             f"| {_std_at(run, best['checkpoint'])} "
             f"| {nr:.3f} ({best['eval']['nr_paper']:.3f}) | {cost} | {cpu_ratio} "
-            f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} |")
+            f"| {_forces(_json(run / 'push.json'))} | {_forces(_json(run / 'push_cpu.json'))} | {paper} | {target} "
+            f"| {last:.3f}{last_cost} |")
 
 
 def main() -> None:
@@ -67,8 +79,8 @@ def main() -> None:
     args = parser.parse_args()
     baselines = {folder.load_config(run).clip.name: run for run in args.baselines}
     print("| run | clip | pushes | pose termination | samples | best at | std there | NR on MJX | NR cost "
-          "| CPU / MJX | push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 |")
-    print("|---|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+          "| CPU / MJX | push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 | last five (cost) |")
+    print("|---|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for run in args.runs:
         print(row(run, baselines))
 
