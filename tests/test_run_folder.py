@@ -40,6 +40,26 @@ def test_missing_folder_config_and_policy_are_one_line_errors(tmp_path):
         folder.load_policy_file(tmp_path / "policy.npz")
 
 
+def test_a_policy_file_that_is_no_npz_archive_is_named_so(tmp_path):
+    """A text file, a .npy and an npz cut short: one line saying the file is not a whole npz
+    archive, never numpy's hint to load the file as a pickle."""
+    import numpy as np
+
+    from mjxmimic.portable.policy_file import read_npz
+
+    np.savez(tmp_path / "whole.npz", a=np.zeros(3))
+    np.save(tmp_path / "array.npy", np.zeros(3))
+    files = {"text.npz": b"garbage\n", "array.npz": (tmp_path / "array.npy").read_bytes(),
+             "cut.npz": (tmp_path / "whole.npz").read_bytes()[:-30]}
+    for name, content in files.items():
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(UserError, match=f"{name}: cannot read as an npz policy file \\(not a whole npz archive") as err:
+            read_npz(tmp_path / name)
+        assert "pickle" not in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(UserError, match="whole.npz: not an mjxmimic policy file"):
+        read_npz(tmp_path / "whole.npz")
+
+
 def test_config_and_eval_round_trip(tmp_path):
     run_dir = tmp_path / "run"
     config = config_lib.make_config("cpu")

@@ -62,6 +62,21 @@ def test_out_naming_a_file_is_one_line(tmp_path, capsys):
     assert target.read_text() == "keep me"
 
 
+@pytest.mark.parametrize("key, value, why", [
+    ("env.events", "nope", "'nope' is not an event"),
+    ("env.observations", "phase,nope", "'phase,nope' must name terms among"),
+    ("reward.weights", "nope=1", "no term 'nope' in the released reward"),
+])
+def test_a_bad_term_name_is_one_line_before_the_env_is_built(key, value, why, tmp_path, capsys):
+    """Term names are read with the config, so a run (or each run of a sweep) is refused before
+    anything is built or written."""
+    out = tmp_path / "run"
+    assert cli.main(["train", "--preset", "cpu", "--set", f"{key}={value}", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"mjxmimic train: error: config key '{key}': {why}")
+    assert not out.exists()
+
+
 def test_resume_after_a_crash_drops_the_rows_past_the_checkpoint(tmp_path):
     run_dir = tmp_path / "run"
     train(_config(total_samples=2560), run_dir, env=StandInEnv(), progress=False)

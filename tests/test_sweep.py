@@ -124,6 +124,8 @@ BAD_SPECS = [
     ({"preset": "cpu", "runs": [{"label": "a b"}]}, '"label"'),
     ({"preset": "cpu", "runs": [{"label": 3}]}, '"label"'),
     ({"preset": "cpu", "runs": [{"label": "x"}, {"label": "x", "ppo.num_envs": 64}]}, '"label"'),
+    ({"preset": "cpu", "runs": [{"env.observations": "phase,nope"}]}, "env.observations"),  # a term name
+    ({"preset": "cpu", "grid": {"reward.weights": ["pose=1", "posture=1"]}}, "no term 'posture'"),
 ]
 
 

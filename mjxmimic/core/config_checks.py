@@ -152,3 +152,14 @@ def validate(config: Config) -> None:
     for ok, key, why in checks:
         if not ok:
             raise UserError(f"config key {key!r}: {why}")
+    _check_term_names(config)
+
+
+def _check_term_names(config: Config) -> None:
+    """The names in the term lists, read by the parsers that the env's step is built from, so that
+    a bad one is refused with the config (before a run, or each run of a sweep, starts to build)."""
+    from mjxmimic.task import events, observation, reward  # they read this package's config types
+
+    observation.parse(config.env.observations)
+    events.parse(config.env.events)
+    reward.terms(config.reward.kind, config.reward.weights)

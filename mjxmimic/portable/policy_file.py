@@ -409,7 +409,12 @@ UNREADABLE_NPZ = (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error)
 
 
 def load_arrays(path: Path, what: str = "an npz policy file") -> dict[str, np.ndarray]:
-    """Every array of an npz file (no pickles); a one-line UserError when it cannot be read."""
+    """Every array of an npz file (no pickles); a one-line UserError when it cannot be read.
+    An npz is a zip archive: anything else (a text file, a .npy, one cut short) is named as such
+    up front, as np.load would try it as a pickle and answer with a hint to load it unsafely."""
+    if Path(path).is_file() and not zipfile.is_zipfile(path):
+        raise UserError(f"{path}: cannot read as {what} (not a whole npz archive: another kind of "
+                        "file, or one cut short)")
     try:
         with np.load(path, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
