@@ -8,12 +8,17 @@ from pathlib import Path
 import jax
 import pytest
 
+from mjxmimic.core import compile_cache
+
 REPO = Path(__file__).resolve().parent.parent
 DEEPMIMIC = REPO.parent / "shared" / "deepmimic"
 
-# the commands' own cache (mjxmimic.core.compile_cache), in-process and in subprocesses, is this one
+# the commands' own cache (mjxmimic.core.compile_cache), in-process and in subprocesses, is this one,
+# set up here as the commands set it up: a test process that wrote entries without their access
+# times (no size bound) broke the eviction scan of the commands it started ("Error writing
+# persistent compilation cache entry")
 os.environ["MJXMIMIC_COMPILE_CACHE"] = str(REPO / ".pytest_cache" / "jax")
-jax.config.update("jax_compilation_cache_dir", os.environ["MJXMIMIC_COMPILE_CACHE"])
+compile_cache.enable()
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
