@@ -126,6 +126,18 @@ def test_a_run_saved_before_torque_limit_existed_keeps_its_law(tmp_path):
     assert config_lib.from_dict(saved).env.torque_limit == "proportional"
 
 
+@pytest.mark.parametrize("flags, message", [
+    (["--clip", "no_such_clip"], "unknown clip 'no_such_clip'"),
+    (["--character", "no_such_character"], "unknown character 'no_such_character'"),
+])
+def test_a_bad_clip_or_character_is_the_only_line(flags, message, capsys, tmp_path):
+    """Read before `train` says it builds the env: the error is all it prints, and no folder is made."""
+    out = tmp_path / "r"
+    assert cli.main(["train", "--preset", "cpu", *flags, "--out", str(out)]) == 2
+    assert message in _one_line_error(capsys)
+    assert not out.exists()
+
+
 def test_resume_errors_are_one_line(capsys, tmp_path):
     assert cli.main(["train", "--resume", str(tmp_path / "missing")]) == 2
     assert "run folder not found" in _one_line_error(capsys)

@@ -125,17 +125,19 @@ def run(args: argparse.Namespace) -> int:
     say = lambda text: print(f"mjxmimic train: {text}", file=sys.stderr, flush=True)  # noqa: E731
     import jax
 
+    env = None
+    if not resume:
+        # Read the character and the clips before anything is said or written: a bad clip is
+        # then the only line, and leaves no folder.
+        from mjxmimic.envs.mjx_env import ImitationEnv, load_env_inputs
+
+        inputs = load_env_inputs(config)
     cache = jax.config.jax_compilation_cache_dir
     say(f"building the env ({config.clip.name}, {config.ppo.num_envs:,} envs); the first iteration "
         f"then waits for JAX to compile the train step" + (f" (or to load it from {cache})" if cache else ""))
     if not resume:
-        # Build the env before writing anything: a bad clip is one error line and no folder.
-        from mjxmimic.envs.mjx_env import make_env
-
-        env = make_env(config)
+        env = ImitationEnv(config, *inputs)
         say(f"env built in {time.time() - start:.0f} s (physics: {env.backend}); compiling")
-    else:
-        env = None
     outcome = train(config, run_dir, resume=resume, env=env, start_time=start,
                     progress=True if sys.stderr.isatty() else "plain")
     s = outcome.summary
