@@ -8,10 +8,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
+from mjxmimic.portable.policy_file import read_npz
 from mjxmimic.runs import folder
 
 REPO = Path(__file__).resolve().parent.parent
@@ -43,10 +45,6 @@ def test_missing_folder_config_and_policy_are_one_line_errors(tmp_path):
 def test_a_policy_file_that_is_no_npz_archive_is_named_so(tmp_path):
     """A text file, a .npy and an npz cut short: one line saying the file is not a whole npz
     archive, never numpy's hint to load the file as a pickle."""
-    import numpy as np
-
-    from mjxmimic.portable.policy_file import read_npz
-
     np.savez(tmp_path / "whole.npz", a=np.zeros(3))
     np.save(tmp_path / "array.npy", np.zeros(3))
     files = {"text.npz": b"garbage\n", "array.npz": (tmp_path / "array.npy").read_bytes(),

@@ -4,7 +4,8 @@ in brackets), CPU / MJX NR, the push test on MJX (push.json) and on MuJoCo C (pu
 beside Table 6 and 1.5 x Table 6, the NR cost against the preset's 100 M policy of the clip
 without pushes (../skills_100m/CLIP), or against the runs given after --baselines (the clip's
 own, by its config), and the mean NR of the last five evaluations with its cost against the
-baseline's (less hostage to one lucky evaluation than the best checkpoint). The files are those that `experiments/device_train.sh`'s grade_NAME writes.
+baseline's (less hostage to one lucky evaluation than the best checkpoint). The files are those
+that `experiments/device_train.sh`'s grade_NAME writes.
 
     python experiments/robustness/table.py experiments/robustness/root_frame/*
     python experiments/robustness/table.py experiments/robustness/sideways/* --baselines \
