@@ -9,6 +9,8 @@ time with x = ref(t). Auto-reset inside `step` with a fresh RSI draw, like the r
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import jax
 import jax.numpy as jnp
 from brax.envs.base import State
@@ -17,6 +19,8 @@ from mjxmimic.task.events import PUSH_SCALE
 
 
 class StandInEnv:
+    physics = SimpleNamespace(name="standin", simulator="stand-in (no physics)")  # what results name
+
     def __init__(self, n: int = 4, clip_duration: float = 2.0, control_dt: float = 1 / 30,
                  episode_steps: int = 120, looping: bool = True, fall_threshold: float = 0.25,
                  pad_observation_to: int = 0):

@@ -255,6 +255,17 @@ def test_kinematics_and_observation_match_mujoco_c(env):
                                    observation(c, np.asarray(phase), np), atol=5e-4)
 
 
+def test_results_name_their_simulator_and_its_version(env):
+    """A push test's forces differ between MJX's implementations and MuJoCo C, so every NR and
+    push result says which one made it (the `simulator` field)."""
+    from importlib.metadata import version
+
+    from mjxmimic.physics.cpu import CpuPhysics
+
+    assert env.physics.simulator == f"mujoco-mjx {version('mujoco-mjx')} (impl jax, cpu)"
+    assert CpuPhysics.simulator == f"mujoco {mujoco.__version__} (CPU, mj_step)"
+
+
 def test_pd_law_is_the_same_in_numpy_and_jax(env):
     rng = np.random.default_rng(5)
     for _ in range(5):

@@ -38,6 +38,7 @@ def test_perfect_tracking_scores_one_on_a_looping_clip():
     assert out["pose_error_rad"] < 1e-4
     assert out["episodes"] == 8
     assert out["samples"] == 123 and out["train_seconds"] == 4.5
+    assert out["simulator"] == env.physics.simulator  # the result names what made it
 
 
 def test_fall_ends_the_episode_and_remaining_steps_count_zero():

@@ -391,6 +391,7 @@ def test_play_cli_reports_nr_and_ratio_without_importing_jax(policy_file):
     assert 0.0 <= out["nr"] <= 1.0 and out["episodes"] == 4
     assert out["mjx_nr"] > 0 and out["ratio"] == pytest.approx(out["nr"] / out["mjx_nr"])
     assert out["starts"].startswith("the MJX evaluation's")
+    assert out["simulator"].startswith("mujoco ") and "(CPU, mj_step)" in out["simulator"]
     for key in ("fall_rate", "survival_s", "pose_error_rad", "end_effector_error_m", "steps_per_s"):
         assert key in out
 
@@ -402,6 +403,7 @@ def test_play_push_test_without_jax(policy_file):
     out = json.loads(result.stdout)
     assert out["push_trials"] == 2 and out["push_forward_n"] >= 0 and out["push_sideways_n"] >= 0
     assert out["push_forward_tried"][0][0] == 0.0  # the search starts unpushed
+    assert "(CPU, mj_step)" in out["simulator"]
     alone = json.loads(_run_play(policy_file, "--push", "--trials", "2", "--json", "--workers", "1").stdout)
     assert alone["push_forward_tried"] == out["push_forward_tried"]  # workers change nothing but the time
     assert alone["push_sideways_tried"] == out["push_sideways_tried"]
@@ -448,6 +450,7 @@ def test_eval_of_the_exported_file_matches_the_run(run, policy_file, capsys):
         results.append(json.loads(capsys.readouterr().out))
     from_run, from_file = results
     assert from_file["episodes"] == 4 and from_file["policy"] == str(policy_file)
+    assert from_file["simulator"] == from_run["simulator"] and "(impl jax, cpu)" in from_run["simulator"]
     for key in ("nr", "nr_paper", "fall_rate", "survival_s"):
         assert from_file[key] == pytest.approx(from_run[key], abs=1e-4), key
 
@@ -462,6 +465,7 @@ def test_push_test_of_the_exported_file_matches_the_run(run, policy_file, capsys
         results.append(json.loads(capsys.readouterr().out))
     from_run, from_file = results
     assert from_file["policy"] == str(policy_file) and "checkpoint" in from_run
+    assert from_file["simulator"] == from_run["simulator"] and "(impl jax, cpu)" in from_run["simulator"]
     for key in ("push_forward_n", "push_sideways_n"):
         assert from_file[key] == pytest.approx(from_run[key], abs=10.0), key  # one bisection step
     assert json.loads((run["dir"] / "push.json").read_text()) == from_run  # the file's grade wrote nothing

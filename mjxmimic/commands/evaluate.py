@@ -81,7 +81,7 @@ def _run_push(args: argparse.Namespace, policy_file: bool) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    what = "MJX" if policy_file else f"checkpoint {result['checkpoint']:,}"
+    what = result["simulator"] if policy_file else f"checkpoint {result['checkpoint']:,}, {result['simulator']}"
     print_push_table(f"{args.run_dir} ({result['clip']}, {what})", result)
     return 0
 
@@ -131,10 +131,10 @@ def run(args: argparse.Namespace) -> int:
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
     if policy_file:
         result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say)
-        title = f"{args.run_dir} ({result['clip']}, MJX)"
+        title = f"{args.run_dir} ({result['clip']}, {result['simulator']})"
     else:
         result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint or "best", progress=say)
-        title = f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,})"
+        title = f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,}, {result['simulator']})"
     if args.json:
         print(json.dumps(result, indent=2))
         return 0

@@ -245,12 +245,12 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    result = {"policy": str(pf.path), "clip": clip.name,
+    result = {"policy": str(pf.path), "clip": clip.name, "simulator": env.physics.simulator,
               **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say, args.workers)}
     if args.json:
         print(json.dumps(result))
     else:
-        print_push_table(f"{pf.path} on {clip.name}, MuJoCo CPU", result)
+        print_push_table(f"{pf.path} on {clip.name}, {result['simulator']}", result)
     return 0
 
 
@@ -330,12 +330,11 @@ def run(args: argparse.Namespace) -> int:
 
     ev = pf.manifest.get("training", {}).get("eval") or {}
     mjx_nr = ev.get("nr") if args.clip is None else None
-    import mujoco
 
     out = {
         "policy": str(pf.path),
         "clip": clip.name,
-        "simulator": f"mujoco {mujoco.__version__} (CPU, mj_step)",
+        "simulator": env.physics.simulator,
         "physics_hz": env.config.env.physics_hz,
         "substeps": env.substeps,
         "starts": label,

@@ -25,6 +25,7 @@ class Substeps(NamedTuple):
 
 class Physics(Protocol):
     name: str  # "warp", "jax" or "c"
+    simulator: str  # what a result names as its simulator, with versions: push forces differ between them
     xp: Any  # numpy or jax.numpy: the array module that the step uses with this backend
 
     def init(self, qpos: Any, qvel: Any) -> Any:

@@ -24,6 +24,7 @@ class CpuPhysics:
     """MuJoCo C physics of one character (the state is this object's own `MjData`)."""
 
     name = "c"
+    simulator = f"mujoco {mujoco.__version__} (CPU, mj_step)"
     xp = np
 
     def __init__(self, scene: Scene, layout: Layout, substeps: int, torque_limit: str):

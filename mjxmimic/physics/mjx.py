@@ -37,6 +37,15 @@ def warp_available() -> bool:
     return jax.default_backend() == "gpu"
 
 
+def mjx_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("mujoco-mjx")
+    except PackageNotFoundError:  # mujoco.mjx from a source tree
+        return "unknown"
+
+
 def resolve_backend(name: str) -> str:
     """'auto' -> 'warp' on a CUDA GPU with warp-lang installed, else 'jax'."""
     if name not in BACKENDS:
@@ -83,6 +92,7 @@ class MjxPhysics:
     def __init__(self, scene: Scene, layout: Layout, substeps: int, torque_limit: str, impl: str,
                  max_worlds: int = 1, contacts_per_world: int = 32, constraints_per_world: int = 160):
         self.name = impl
+        self.simulator = f"mujoco-mjx {mjx_version()} (impl {impl}, {jax.default_backend()})"
         self.scene = scene
         self.layout = layout
         self.substeps = substeps

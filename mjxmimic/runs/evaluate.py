@@ -102,7 +102,8 @@ def summarize(acc: dict, control_dt: float, task: str = "", course_length: float
     return result
 
 
-def _finish(result: dict, seconds: float, samples: int | None, train_seconds: float | None) -> dict:
+def _finish(result: dict, env, seconds: float, samples: int | None, train_seconds: float | None) -> dict:
+    result["simulator"] = env.physics.simulator
     result["eval_seconds"] = seconds
     if samples is not None:
         result["samples"] = int(samples)
@@ -142,7 +143,7 @@ def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episode
     key, task = jax.random.PRNGKey(seed), task_of(env)
     result = per_clip(env, lambda c: summarize(jax.device_get(run(key, c)), env.control_dt, task,
                                                config.terrain.length_m))
-    return _finish(result, time.time() - start, samples, train_seconds)
+    return _finish(result, env, time.time() - start, samples, train_seconds)
 
 
 class Evaluator:
@@ -199,4 +200,4 @@ class Evaluator:
         if self.stochastic:
             noisy = graded(False)
             result.update({f"stochastic_{k}": noisy[k] for k in self.STOCHASTIC_FIELDS})
-        return _finish(result, time.time() - start, samples, train_seconds)
+        return _finish(result, self.env, time.time() - start, samples, train_seconds)

@@ -68,4 +68,4 @@ def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol
         config, env, policy, _, step = load_run_policy(run_dir, env, which)
         where = {"checkpoint": step}
     result = push_test(env, policy, config.run.seed + 1 if seed is None else seed, trials, progress)
-    return {"clip": config.clip.name, **where, **result}
+    return {"clip": config.clip.name, **where, "simulator": env.physics.simulator, **result}
