@@ -153,7 +153,9 @@ def test_train_on_a_dataset_end_to_end(tmp_path, capsys):
     assert cli.main(["export", str(run), "--out", str(policy)]) == 0
     capsys.readouterr()
     assert cli.main(["play", str(policy), "--episodes", "2", "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)["clips"]
+    played = json.loads(capsys.readouterr().out)
+    rows = played["clips"]
+    assert "(CPU, mj_step)" in played["simulator"]
     assert set(rows) == {"slow_walk", "squat"}
     for name, row in rows.items():  # the MJX evaluation's NR of each clip came along
         assert row["mjx_nr"] == pytest.approx(final[f"clip/{name}/nr"]) and 0 <= row["nr"] <= 1

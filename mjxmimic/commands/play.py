@@ -160,9 +160,9 @@ def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
                            "survival_s": result["survival_s"], "episodes": result["episodes"], "starts": label,
                            "mjx_nr": mjx_nr, "ratio": result["nr"] / mjx_nr if mjx_nr else None}
     if args.json:
-        print(json.dumps({"policy": str(pf.path), "clips": rows}))
+        print(json.dumps({"policy": str(pf.path), "simulator": env.physics.simulator, "clips": rows}))
         return 0
-    print(f"{pf.path}: {len(env.clips)} skills, MuJoCo CPU")
+    print(f"{pf.path}: {len(env.clips)} skills, {env.physics.simulator}")
     print(f"  {'skill':<20} {'NR (CPU)':>9} {'paper form':>10} {'MJX NR':>7} {'ratio':>6} {'falls':>6}")
     for name, r in rows.items():
         mjx = "-" if r["mjx_nr"] is None else f"{r['mjx_nr']:.3f}"

@@ -38,6 +38,7 @@ def warp_available() -> bool:
 
 
 def mjx_version() -> str:
+    """The installed mujoco-mjx's version, for the results that name their simulator."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
