@@ -90,6 +90,7 @@ def test_real_training_beats_the_untrained_policy(real_run):
     assert final["samples"] == 153600
     assert final["nr"] > untrained + 0.04, (untrained, [e["eval/nr"] for e in evals])
     assert final["samples_per_s_steady"] > 0
+    assert "(impl jax, cpu)" in final["simulator"]  # the training's own evaluation names its simulator
     for key in ("fall_rate", "survival_s", "pose_error_rad", "end_effector_error_m", "train_seconds"):
         assert key in final
 
