@@ -10,6 +10,7 @@ and MJX's general kinematics compiles several times slower.
 from __future__ import annotations
 
 import contextlib
+from importlib.metadata import version
 from typing import Any
 
 import jax
@@ -35,16 +36,6 @@ def warp_available() -> bool:
     except ImportError:
         return False
     return jax.default_backend() == "gpu"
-
-
-def mjx_version() -> str:
-    """The installed mujoco-mjx's version, for the results that name their simulator."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("mujoco-mjx")
-    except PackageNotFoundError:  # mujoco.mjx from a source tree
-        return "unknown"
 
 
 def resolve_backend(name: str) -> str:
@@ -93,7 +84,7 @@ class MjxPhysics:
     def __init__(self, scene: Scene, layout: Layout, substeps: int, torque_limit: str, impl: str,
                  max_worlds: int = 1, contacts_per_world: int = 32, constraints_per_world: int = 160):
         self.name = impl
-        self.simulator = f"mujoco-mjx {mjx_version()} (impl {impl}, {jax.default_backend()})"
+        self.simulator = f"mujoco-mjx {version('mujoco-mjx')} (impl {impl}, {jax.default_backend()})"
         self.scene = scene
         self.layout = layout
         self.substeps = substeps
