@@ -26,8 +26,10 @@
 # PACK=policies: instead of the checkpoints, bring back each run's exported best policy
 # (runs/NAME/policy.npz) with its config, metrics and logs (for runs that will not be resumed);
 # PACK=best: the same plus each run's best checkpoint (runs/NAME/best), to export again later.
-# PACK=none: bring back only the logs, metrics and the runs' small JSON files (config, evaluation,
-# grades; in logs.tgz); the runs stay on the warm machine for the next call.
+# PACK=none: bring back the logs, metrics and the runs' small JSON files (config, evaluation,
+# grades) and, once each, the policies that grades exported (in logs.tgz.*, 15 MiB parts: cat
+# logs.tgz.* | tar xzf -); the runs stay on the warm machine for the next call. A host given back
+# between calls (after 30 s idle) then takes only the runs still training with it.
 set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
@@ -142,9 +144,14 @@ if [ -d /tmp/bench ]; then
   # cleared once packed: results of a call killed before this point come back with the next one
   tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
-if [ "${PACK:-}" = none ]; then  # one archive: $OUT brings back at most 8 files
-  tar czf "$OUT/logs.tgz" -C "$OUT" --files-from <(cd "$OUT" && ls ./*.log ./*.metrics.jsonl 2>/dev/null) \
-    -C "$PWD" --files-from <(ls runs/*/*.json runs/*/*.log 2>/dev/null) && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl
+if [ "${PACK:-}" = none ]; then  # one archive: $OUT brings back at most 8 files and 64 MiB
+  policies=()  # at most six (35 MiB), each once
+  for p in runs/*/policy.npz; do
+    [ -f "$p" ] && [ ! -f "$p.sent" ] && [ ${#policies[@]} -lt 6 ] && policies+=("$p") && touch "$p.sent"
+  done
+  tar czf - -C "$OUT" --files-from <(cd "$OUT" && ls ./*.log ./*.metrics.jsonl 2>/dev/null) \
+    -C "$PWD" --files-from <(ls runs/*/*.json runs/*/*.log 2>/dev/null; printf '%s\n' ${policies[@]+"${policies[@]}"}) \
+    | split -b 15M - "$OUT/logs.tgz." && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl
   exit 0
 fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
