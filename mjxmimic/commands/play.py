@@ -245,8 +245,8 @@ def _push(args: argparse.Namespace, pf, env, policy, clip) -> int:
     if args.trials < 1:
         raise UserError(f"--trials {args.trials}: must be at least 1")
     say = None if args.json else (lambda line: print(f"  {line}", flush=True))
-    result = {"policy": str(pf.path), "clip": clip.name, "simulator": env.physics.simulator,
-              **push_test(env, policy, args.trials, 0 if args.seed is None else args.seed, say, args.workers)}
+    seed = 0 if args.seed is None else args.seed
+    result = {"policy": str(pf.path), "clip": clip.name, **push_test(env, policy, args.trials, seed, say, args.workers)}
     if args.json:
         print(json.dumps(result))
     else:

@@ -68,10 +68,12 @@ def survival_rate(env: Any, policy: Callable[[np.ndarray], np.ndarray], force_n:
 
 def push_test(env: Any, policy: Callable[[np.ndarray], np.ndarray], trials: int = protocol.TRIALS,
               seed: int = 0, progress: Callable[[str], None] | None = None, workers: int = 1) -> dict[str, Any]:
-    """push_forward_n and push_sideways_n on the CPU env, with every (force, survival rate) tried."""
+    """push_forward_n and push_sideways_n on the CPU env, with every (force, survival rate) tried
+    and the simulator that made them."""
     lib = env.spec.lib
     start_range = protocol.start_time_range(float(lib.duration[0]), bool(lib.loop[0]))
     starts = np.random.default_rng(seed).uniform(0.0, start_range, size=trials)
     with trial_pool(env, policy, min(workers, trials)) as pool:
-        return protocol.search(lambda force, turn: survival_rate(env, policy, force, turn, starts, pool),
-                               trials, progress)
+        return {"simulator": env.physics.simulator,
+                **protocol.search(lambda force, turn: survival_rate(env, policy, force, turn, starts, pool),
+                                  trials, progress)}

@@ -47,11 +47,12 @@ def make_trials(env: Any, policy_fn: Callable, trials: int, clip: int = 0) -> Ca
 def push_test(env: Any, policy_fn: Callable, seed: int = 0, trials: int = protocol.TRIALS,
               progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """push_forward_n and push_sideways_n (the largest forces that 90 % of the trials survive),
-    with every (force, survival rate) tried."""
+    with every (force, survival rate) tried and the simulator that made them."""
     run = make_trials(env, policy_fn, trials)
     key = jax.random.PRNGKey(seed)
-    return protocol.search(lambda force, turn: float(run(key, jnp.float32(force), jnp.float32(turn))),
-                           trials, progress)
+    return {"simulator": env.physics.simulator,
+            **protocol.search(lambda force, turn: float(run(key, jnp.float32(force), jnp.float32(turn))),
+                              trials, progress)}
 
 
 def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol.TRIALS, env: Any = None,
@@ -68,4 +69,4 @@ def push_test_run(run_dir: Path, seed: int | None = None, trials: int = protocol
         config, env, policy, _, step = load_run_policy(run_dir, env, which)
         where = {"checkpoint": step}
     result = push_test(env, policy, config.run.seed + 1 if seed is None else seed, trials, progress)
-    return {"clip": config.clip.name, **where, "simulator": env.physics.simulator, **result}
+    return {"clip": config.clip.name, **where, **result}
