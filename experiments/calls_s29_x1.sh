@@ -10,9 +10,9 @@
 #           a push every 4 s (seed 1: cost 0.011, 550 / 888 N on MJX-Warp)
 #   kcRZ    the spinkick's kcRY with sideways pushes 1.15 times the forward (up to 1311 N)
 #           (seed 1: cost -0.006, 1081 / 1000 N on MJX-Warp)
-# 200 M samples, pushes stopped at 180 M, seed 0. Ran as calls of 548, 541 and 508 s wall (the last
-# with PACK=policies and SECONDS 500): both runs ended and were graded in call C. Carried (ignored folder): .clips/ (DeepMimic's
-# motions).
+# 200 M samples, pushes stopped at 180 M, seed 0. Ran as calls of 548, 541 and 508 s wall (the
+# last with PACK=policies and SECONDS 500): both runs ended and were graded in call C.
+# Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
 export GRADE_WORKERS=$(( $(nproc) / 2 - 1 ))
