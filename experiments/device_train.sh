@@ -145,13 +145,15 @@ if [ -d /tmp/bench ]; then
   tar czf "$OUT/bench.tgz" -C /tmp bench && rm -rf /tmp/bench; files=1; bytes=$(stat -c %s "$OUT/bench.tgz")
 fi
 if [ "${PACK:-}" = none ]; then  # one archive: $OUT brings back at most 8 files and 64 MiB
-  policies=()  # at most six (35 MiB), each once
+  policies=()  # at most six (35 MiB), each once: marked sent once packed, as the bench results
   for p in runs/*/policy.npz; do
-    [ -f "$p" ] && [ ! -f "$p.sent" ] && [ ${#policies[@]} -lt 6 ] && policies+=("$p") && touch "$p.sent"
+    [ -f "$p" ] && [ ! -f "$p.sent" ] && [ ${#policies[@]} -lt 6 ] && policies+=("$p")
   done
+  set -o pipefail
   tar czf - -C "$OUT" --files-from <(cd "$OUT" && ls ./*.log ./*.metrics.jsonl 2>/dev/null) \
     -C "$PWD" --files-from <(ls runs/*/*.json runs/*/*.log 2>/dev/null; printf '%s\n' ${policies[@]+"${policies[@]}"}) \
-    | split -b 15M - "$OUT/logs.tgz." && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl
+    | split -b 15M - "$OUT/logs.tgz." && rm -f "$OUT"/*.log "$OUT"/*.metrics.jsonl \
+    && for p in ${policies[@]+"${policies[@]}"}; do touch "$p.sent"; done
   exit 0
 fi
 if [ "${PACK:-checkpoints}" != checkpoints ]; then
