@@ -10,7 +10,8 @@
 # (push_sideways_scale 2.24, about 5 % above 705 N), on both seeds:
 #   ccRWJ     seed 0
 #   ccRWJ_s1  seed 1
-# 200 M samples, pushes stopped at 180 M.
+# 200 M samples, pushes stopped at 180 M. Ran as calls of 549, 541 and 525 s wall (the last with
+# PACK=policies and SECONDS 510): both runs ended in call C with time for their MJX push test only.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
