@@ -11,7 +11,8 @@
 # on both seeds:
 #   bcSK     seed 0
 #   bcSK_s1  seed 1
-# 200 M samples, pushes stopped at 180 M.
+# 200 M samples, pushes stopped at 180 M. Ran as calls of 549, 541 and 495 s wall (the last with
+# PACK=policies and SECONDS 480): both runs ended in call C with time for their MJX push test only.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 export MJXMIMIC_CLIPS=$PWD/.clips
