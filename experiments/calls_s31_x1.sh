@@ -15,9 +15,6 @@
 # PACK=policies and SECONDS 480): both runs ended in call C with time for their MJX push test only.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
-export MJXMIMIC_CLIPS=$PWD/.clips
-export GRADE_WORKERS=$(( $(nproc) / 2 - 1 ))
-export GRADE_MIN=75  # the MJX push test and the export fit; the MuJoCo C tests run on if time is left
 long="--preset gpu --set run.total_samples=200000000"
 push="$long --set env.pose_termination_frame=root --set env.events=push --set env.push_directions=table6 \
 --set env.push_interval_jitter_s=1.0 --set env.push_ramp_samples=50000000 --set env.push_stop_samples=180000000"

@@ -18,8 +18,11 @@
 # A NAME that starts with "grade_" grades the run of the rest of its name once it is done: its
 # best checkpoint's push test on MJX (`mjxmimic eval RUN --push`, on the lane's GPU), then its
 # exported policy's NR and push test on MuJoCo C (`mjxmimic play`, on GRADE_WORKERS CPU cores,
-# beside the lane's next run); a run not done, or graded already, is skipped. The call's report
-# lists each run's grades under its evaluations.
+# by default half the machine's less one, beside the lane's next run); a run not done, or graded
+# already, is skipped, and so is a grade with less than GRADE_MIN seconds (default 75: the MJX push
+# test and the export fit; the MuJoCo C tests run on while time is left) left in the call. The
+# call's report lists each run's grades under its evaluations.
+# Clips come from .clips/ (carried with the call) unless MJXMIMIC_CLIPS names another folder.
 # A NAME that starts with "warm_" only builds and compiles (run.max_seconds=1), so that the
 # runs after it load their programs from the compilation cache. Runs that are done (eval.json)
 # and warm-ups that ran are skipped.
@@ -34,6 +37,9 @@ set -u
 seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
 export PYTHONUNBUFFERED=1
+if [ -z "${MJXMIMIC_CLIPS:-}" ] && [ -d .clips ]; then export MJXMIMIC_CLIPS=$PWD/.clips; fi
+GRADE_WORKERS=${GRADE_WORKERS:-$(( $(nproc) > 3 ? $(nproc) / 2 - 1 : 1 ))}
+GRADE_MIN=${GRADE_MIN:-75}
 # the GPUs this script may use: those CUDA_VISIBLE_DEVICES names, else all of the machine's
 if [ -n "${CUDA_VISIBLE_DEVICES:-}" ]; then IFS=, read -ra gpus <<< "$CUDA_VISIBLE_DEVICES"
 else mapfile -t gpus < <(nvidia-smi --query-gpu=index --format=csv,noheader 2>/dev/null); fi
@@ -76,13 +82,13 @@ keep_logs() {  # each run's log of this call into its folder (a run done in an e
 grade() {  # grade_NAME
   local run=runs/${1#grade_} left=$(( deadline - $(date +%s) ))
   [ -f "$run/eval.json" ] && [ ! -f "$run/push_cpu.json" ] || return 0
-  if [ "$left" -lt "${GRADE_MIN:-150}" ]; then echo "$run: not graded, $left s left in this call"; return; fi
+  if [ "$left" -lt "$GRADE_MIN" ]; then echo "$run: not graded, $left s left in this call"; return; fi
   timeout -k 10 "$left" python3 -m mjxmimic.cli eval "$run" --push --checkpoint best > "$run/push_mjx.log" 2>&1
   XLA_PYTHON_CLIENT_PREALLOCATE=false timeout -k 10 "$left" python3 -m mjxmimic.cli export "$run" > "$run/export.log" 2>&1 \
     || return
   local test
   for test in play push; do
-    local flags=(--json); [ $test = push ] && flags+=(--push --workers "${GRADE_WORKERS:-4}")
+    local flags=(--json); [ $test = push ] && flags+=(--push --workers "$GRADE_WORKERS")
     (timeout -k 10 $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli play "$run/policy.npz" "${flags[@]}" \
       > "$run/${test}_cpu.json.part" 2> "$run/${test}_cpu.log" && mv "$run/${test}_cpu.json.part" "$run/${test}_cpu.json") &
   done
