@@ -10,7 +10,8 @@
 # at 180 M, on both seeds:
 #   bcSM     seed 0
 #   bcSM_s1  seed 1
-# 200 M samples, pushes stopped at 180 M.
+# 200 M samples, pushes stopped at 180 M. Ran as calls of 547, 556 and 493 s wall (the last with
+# PACK=policies and SECONDS 485): both runs ended in call C and were graded there.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 long="--preset gpu --set run.total_samples=200000000"
