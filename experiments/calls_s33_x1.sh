@@ -9,6 +9,8 @@
 # preset's backflip and bcSM's recipe side by side:
 #   b200_s2   the preset, 200 M samples, no pushes (as b200 and b200_s1)
 #   bcSM_s2   680 N forward and up to 156 N sideways, every 4 s, stopped at 180 M (as bcSM)
+# Ran as calls of 548, 556 and 479 s wall (the last with PACK=policies and SECONDS 478): both runs
+# ended in call C and were graded there.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 long="--preset gpu --set run.total_samples=200000000"
