@@ -11,6 +11,8 @@
 # b200 and b200_s1):
 #   bcSN      680 N forward and up to 156 N sideways, every 4 s, stopped at 160 M, seed 0
 #   bcSN_s1   the same, seed 1
+# Ran as calls of 548, 541 and 526 s wall (the last with PACK=policies and SECONDS 500): both runs
+# ended in call C and were graded there on MJX-Warp; their MuJoCo C tests did not finish in it.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 long="--preset gpu --set run.total_samples=200000000"
