@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from mjxmimic.core import jax_setup
@@ -25,6 +26,16 @@ COMMANDS = {
     "sweep": ("mjxmimic.commands.sweep", "run a grid of training runs and report"),
 }
 USES_MJX = ("train", "eval", "export", "bench")  # the others stay JAX-free where they can
+PLAYS_ON_CPU = ("play", "render")  # MuJoCo C and the numpy policy, one observation at a time
+
+
+def one_blas_thread() -> None:
+    """One BLAS thread per process unless the user chose otherwise, set before numpy is first
+    imported (it reads these then). One observation's pass through the policy is too small to
+    split, and beside other busy processes (the push test's workers, a grade beside training) a
+    pool of one thread per core only makes each step wait (benchmarks/RESULTS.md)."""
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(name, "1")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,6 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command in USES_MJX:
         jax_setup.prepare()
+    elif args.command in PLAYS_ON_CPU:
+        one_blas_thread()
     module = importlib.import_module(COMMANDS[args.command][0])
     try:
         return int(module.run(args) or 0)

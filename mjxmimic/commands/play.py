@@ -261,11 +261,6 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers {args.workers}: must be at least 1")
     args.workers = args.workers or os.cpu_count() or 1
-    if args.push and args.workers > 1:
-        # the push test's workers each run a small policy: BLAS threads of their own would
-        # oversubscribe the cores (numpy reads these when it is first imported, below)
-        for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-            os.environ.setdefault(name, "1")
 
     if args.viewer and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise UserError("--viewer needs a display (DISPLAY and WAYLAND_DISPLAY are unset); "
