@@ -10,6 +10,8 @@
 # 160 M keep the force with pushes up to 730 N forward (and up to 168 N sideways, scale 0.23)?
 #   bcSO      730 N forward and up to 168 N sideways, every 4 s, stopped at 160 M, seed 0
 #   bcSO_s1   the same, seed 1
+# Ran as calls of 548, 541 and 434 s wall (the last with PACK=policies and SECONDS 500): both runs
+# ended in call C and were graded there in full, on MJX-Warp and MuJoCo C.
 # Carried (ignored folder): .clips/ (DeepMimic's motions).
 set -u
 long="--preset gpu --set run.total_samples=200000000"
