@@ -1,7 +1,7 @@
 """`mjxmimic train`: PPO on one clip; a run folder with config, metrics, checkpoints and eval.
 
     mjxmimic train [--clip NAME|PATH] [--preset cpu|gpu] [--set section.key=value ...]
-                   [--out DIR] [--seed N] [--name NAME]
+                   [--out DIR] [--seed N] [--name NAME] [--init-from POLICY|RUN]
     mjxmimic train --resume DIR [--set run.key=value ...] [--set ppo.learning_rate*=X]
 
 The run folder (mjxmimic.runs.folder's layout) is runs/<clip>-<timestamp>/ by default,
@@ -42,6 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--name", help="run name: the folder runs/NAME")
     parser.add_argument("--seed", type=arg_types.seed, help="PRNG seed (run.seed)")
     parser.add_argument("--resume", type=arg_types.path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
+    parser.add_argument("--init-from", metavar="POLICY|RUN",
+                        help="start a new run from the networks and observation normaliser of a policy file or a "
+                             "run folder (its policy.npz, else its best checkpoint; run.init_from), e.g. to go on "
+                             "training a learnt skill with pushes; the optimiser and the schedule start afresh")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
                         help="also log to this Weights & Biases project (run.wandb_project; the wandb extra; "
                              "WANDB_MODE=offline without network)")
@@ -65,9 +69,10 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
     if getattr(args, "wandb", None):
         overrides["run.wandb_project"] = args.wandb
     if args.resume is not None:
-        for flag in ("clip", "character", "terrain", "preset", "out", "name"):
-            if getattr(args, flag) is not None:
-                raise UserError(f"--{flag} cannot be combined with --resume (the run's config.json decides)")
+        for flag in ("clip", "character", "terrain", "preset", "out", "name", "init_from"):
+            if getattr(args, flag, None) is not None:
+                raise UserError(f"--{flag.replace('_', '-')} cannot be combined with --resume "
+                                f"(the run's config.json decides)")
         run_dir = folder.require(args.resume)
         # The learning rate and its schedule may change (say, a fine-tuning phase): Adam's state
         # does not depend on them.
@@ -90,6 +95,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[config_lib.Config, Path, bool
         overrides["character.xml"] = args.character
     if args.seed is not None:
         overrides["run.seed"] = str(args.seed)
+    if getattr(args, "init_from", None) is not None:
+        overrides["run.init_from"] = args.init_from
     config = config_lib.make_config(args.preset or default_preset(), overrides)
     if args.out is not None:
         run_dir = args.out
@@ -132,6 +139,14 @@ def run(args: argparse.Namespace) -> int:
         from mjxmimic.envs.mjx_env import ImitationEnv, load_env_inputs
 
         inputs = load_env_inputs(config)
+        if config.run.init_from:
+            from mjxmimic.runs.warm_start import read_start
+
+            start_file = read_start(config, inputs[0], [c.name for c in inputs[1]])
+            training = start_file.manifest.get("training", {})
+            nr = training.get("eval", {}).get("nr")
+            say(f"starting from {config.run.init_from} (trained {training.get('samples', 0):,} samples"
+                + (f", NR {nr:.3f})" if nr is not None else ")"))
     cache = jax.config.jax_compilation_cache_dir
     say(f"building the env ({config.clip.name}, {config.ppo.num_envs:,} envs); the first iteration "
         f"then waits for JAX to compile the train step" + (f" (or to load it from {cache})" if cache else ""))

@@ -242,6 +242,9 @@ class RunConfig:
     eval_stochastic: bool = False
     wandb_project: str = ""  # also log to this Weights & Biases project (mjxmimic.runs.wandb_log); "" = off
     wandb_videos: bool = True  # with W&B: a video of each new best policy, where rendering works
+    # a policy file or run folder whose networks and observation normaliser start a new run
+    # (mjxmimic.runs.warm_start: fine-tuning a learnt skill with pushes, terrain or a task); "" = none
+    init_from: str = ""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -180,6 +180,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         env_factory = functools.partial(make_env, run_dir=run_dir)  # a resume reads the clips the run kept
     if env is None:
         env = env_factory(config)
+    fresh = not resume or checkpoint.latest_checkpoint(run_dir) is None
+    start = _read_start(config, run_dir) if fresh and config.run.init_from else None  # before compiling
     trainer = make_trainer(env, config)
     run_cfg = config.run
     graded = config_lib.evaluation_config(config)  # training-only perturbations off (pushes, randomisation)
@@ -224,6 +226,10 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         ts = trainer.place(restored)
         # rows written after that checkpoint (a crash, kill -9) would repeat its steps
         metrics_log.truncate(run_dir, int(meta["env_steps"]))
+    if start is not None and not resume:
+        from mjxmimic.runs.warm_start import apply_start
+
+        ts = trainer.place(apply_start(ts, start, config))
     if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
         folder.write_config(run_dir, config)  # only once the restore has succeeded
     if not resume:
@@ -263,7 +269,7 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
         so that best.json never names a checkpoint that is not there); whether it was the best."""
         nonlocal best
-        if env_steps < best_from:
+        if env_steps < best_from or (env_steps == 0 and config.run.init_from):  # that one is the source's
             return False
         metric, value = best_score(config, result)
         # the recorded best is scored again: a run resumed under other task weights compares alike
@@ -326,7 +332,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     try:
         if not resume and run_cfg.eval_at_start and env_steps == 0:
             result = run_eval()
-            bar.note(f"untrained policy: NR {result['nr']:.3f}")
+            bar.note(f"{'starting (run.init_from)' if config.run.init_from else 'untrained'} policy: "
+                     f"NR {result['nr']:.3f}")
         with stop, bar:
             while env_steps < run_cfg.total_samples:
                 if stop.should_stop():
@@ -405,6 +412,15 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
     return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps, iterations=iterations,
                    summary=out, final_eval=final, call_iterations=iterations - iterations_before)
+
+
+def _read_start(config: config_lib.Config, run_dir: Path) -> Any:
+    """The policy file that run.init_from names, checked against this run (mjxmimic.runs.warm_start)."""
+    from mjxmimic.envs.mjx_env import load_env_inputs
+    from mjxmimic.runs.warm_start import read_start
+
+    character, clips, _ = load_env_inputs(config, run_dir)
+    return read_start(config, character, [c.name for c in clips])
 
 
 def _sweep_deadline() -> float | None:
