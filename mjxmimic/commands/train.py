@@ -45,7 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--init-from", metavar="POLICY|RUN",
                         help="start a new run from the networks and observation normaliser of a policy file or a "
                              "run folder (its policy.npz, else its best checkpoint; run.init_from), e.g. to go on "
-                             "training a learnt skill with pushes; the optimiser and the schedule start afresh")
+                             "training a learnt skill with pushes; the optimiser and the schedule start afresh, so set "
+                             "ppo.learning_rate near the source's last (the gpu preset ends at 3e-5)")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
                         help="also log to this Weights & Biases project (run.wandb_project; the wandb extra; "
                              "WANDB_MODE=offline without network)")
