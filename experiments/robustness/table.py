@@ -2,20 +2,25 @@
 checkpoint, the policy's exploration std there, NR on MJX (released form, paper form as written
 in brackets), CPU / MJX NR, the push test on MJX (push.json) and on MuJoCo C (push_cpu.json)
 beside Table 6 and 1.5 x Table 6, the NR cost against the preset's 100 M policy of the clip
-without pushes (../skills_100m/CLIP), or against the runs given after --baselines (the clip's
-own, by its config), and the mean NR of the last five evaluations with its cost against the
-baseline's (less hostage to one lucky evaluation than the best checkpoint). The files are those
-that `experiments/device_train.sh`'s grade_NAME writes.
+without pushes (../skills_100m/CLIP), or against the runs given after --baselines (the one of
+the same clip and seed, else the clip's only one), and the mean NR of the last five evaluations
+with its cost against the baseline's (less hostage to one lucky evaluation than the best
+checkpoint). With --summary, then per clip and seed: the runs' mean best NR, its standard
+deviation and its mean cost. The files are those that `experiments/device_train.sh`'s grade_NAME
+writes.
 
     python experiments/robustness/table.py experiments/robustness/root_frame/*
     python experiments/robustness/table.py experiments/robustness/sideways/* --baselines \
         experiments/robustness/sideways/r200 experiments/robustness/sideways/b200
+    cd experiments/robustness && python table.py sideways/bcS second_seed/bcS_s1 \
+        push_share_stop/bcS[YLIKMNO]* --summary --baselines sideways/b200 second_seed/b200_s1 third_seed/b200_s2
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
 from pathlib import Path
 
 from mjxmimic.commands.evaluate import PAPER_PUSH_N
@@ -48,13 +53,20 @@ def _last_evals_mean(run: Path, count: int = 5) -> float:
     return sum(last) / len(last)
 
 
-def row(run: Path, baselines: dict[str, Path]) -> str:
+def _baseline(config, baselines: dict[tuple[str, int], Path]) -> Path:
+    """The baseline of the run's clip and seed, else the clip's only one, else the 100 M suite's."""
+    clip, seed = config.clip.name, config.run.seed
+    of_clip = [path for (name, _), path in baselines.items() if name == clip]
+    return baselines.get((clip, seed), of_clip[0] if len(of_clip) == 1 else BASELINES / clip)
+
+
+def row(run: Path, baselines: dict[tuple[str, int], Path]) -> str:
     config = folder.load_config(run)
     clip = config.clip.name
     best = folder.read_best(run)
     nr = best["eval"]["nr"]
     cpu = _json(run / "play_cpu.json")
-    base = baselines.get(clip, BASELINES / clip)
+    base = _baseline(config, baselines)
     baseline = folder.read_best(base) if base.is_dir() else None
     cost = f"{baseline['eval']['nr'] - nr:.3f}" if baseline else "-"
     last = _last_evals_mean(run)
@@ -72,18 +84,45 @@ def row(run: Path, baselines: dict[str, Path]) -> str:
             f"| {last:.3f}{last_cost} |")
 
 
+def summary(runs: list[Path], baselines: dict[tuple[str, int], Path]) -> list[str]:
+    """Per clip and seed: how many runs, their best NRs' mean, standard deviation and range, the
+    baseline's best NR (the one of that clip and seed) and the mean cost against it."""
+    groups: dict[tuple[str, int], list[float]] = {}
+    for run in runs:
+        config = folder.load_config(run)
+        groups.setdefault((config.clip.name, config.run.seed), []).append(folder.read_best(run)["eval"]["nr"])
+    out = ["| clip | seed | runs | best NR: mean | standard deviation | range | baseline | mean cost |",
+           "|---|---:|---:|---:|---:|---|---:|---:|"]
+    for (clip, seed), nrs in sorted(groups.items()):
+        mean = statistics.mean(nrs)
+        sd = f"{statistics.stdev(nrs):.3f}" if len(nrs) > 1 else "-"
+        base = baselines.get((clip, seed))
+        base_nr = folder.read_best(base)["eval"]["nr"] if base is not None else None
+        against = f"{base_nr:.3f} | {base_nr - mean:.3f}" if base_nr is not None else "- | -"
+        out.append(f"| {clip} | {seed} | {len(nrs)} | {mean:.3f} | {sd} | {min(nrs):.3f} to {max(nrs):.3f} | {against} |")
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--baselines", nargs="*", type=Path, default=[],
-                        help="runs without pushes, one per clip, to measure the NR cost against")
+                        help="runs without pushes, one per clip and seed, to measure the NR cost against")
+    parser.add_argument("--summary", action="store_true",
+                        help="then the runs' mean best NR and mean cost per clip and seed")
     args = parser.parse_args()
-    baselines = {folder.load_config(run).clip.name: run for run in args.baselines}
+    baselines = {}
+    for run in args.baselines:
+        config = folder.load_config(run)
+        baselines[(config.clip.name, config.run.seed)] = run
     print("| run | clip | pushes | pose termination | samples | best at | std there | NR on MJX | NR cost "
           "| CPU / MJX | push on MJX | push on MuJoCo C | Table 6 | 1.5 x Table 6 | last five (cost) |")
     print("|---|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for run in args.runs:
         print(row(run, baselines))
+    if args.summary:
+        print()
+        print("\n".join(summary(args.runs, baselines)))
 
 
 if __name__ == "__main__":
