@@ -61,13 +61,14 @@ def source(tmp_path_factory, env, config) -> Path:
     return export.export_run(run_dir)[0]
 
 
-def _config_from(path: Path, **more) -> config_lib.Config:
-    return config_lib.make_config("cpu", {**TINY, "run.init_from": str(path), **more})
-
-
 def test_the_networks_and_normaliser_are_carried_exactly(source, env):
-    config = _config_from(source)
+    config = config_lib.make_config("cpu", {**TINY, "run.init_from": str(source)})
     pf = read_start(config, env.character, [c.name for c in env.clips])
+    # a run folder names its exported policy
+    of_folder = read_start(config_lib.apply_overrides(config, {"run.init_from": str(source.parent)}),
+                           env.character, [c.name for c in env.clips])
+    np.testing.assert_array_equal(of_folder.params["policy"]["hidden_0"]["kernel"],
+                                  pf.params["policy"]["hidden_0"]["kernel"])
     ts = apply_start(_fresh_state(env, config, seed=0), pf, config)
     for net in ("policy", "value"):
         got = jax.tree_util.tree_map(np.asarray, getattr(ts.params, net)["params"])

@@ -36,6 +36,10 @@ def _shapes(layers: dict) -> dict[str, dict[str, tuple]]:
     return {name: {k: tuple(np.shape(v)) for k, v in layer.items()} for name, layer in layers.items()}
 
 
+def _described(shapes: dict[str, tuple] | None) -> str:
+    return ", ".join(f"{k} {v}" for k, v in sorted(shapes.items())) if shapes else "missing"
+
+
 def _check_networks(pf: PolicyFile, config: config_lib.Config, observation_size: int, action_size: int,
                     source: Path) -> None:
     """The file's layers against the shapes this run's networks will have (traced, not built)."""
@@ -51,9 +55,8 @@ def _check_networks(pf: PolicyFile, config: config_lib.Config, observation_size:
         have = _shapes(pf.params[net])
         if have != want:
             name = next(n for n in sorted(set(have) | set(want)) if have.get(n) != want.get(n))
-            shape = lambda arrays: ", ".join(f"{k} {v}" for k, v in sorted(arrays.get(name, {}).items())) or "missing"  # noqa: E731
-            raise UserError(f"{KEY} {source}: the {net} network's layer {name} is {shape(have)} there, "
-                            f"{shape(want)} here (set {setting} as the source was trained)")
+            raise UserError(f"{KEY} {source}: the {net} network's layer {name} is {_described(have.get(name))} "
+                            f"there, {_described(want.get(name))} here (set {setting} as the source was trained)")
 
 
 def read_start(config: config_lib.Config, character: Any, clip_names: list[str]) -> PolicyFile:
