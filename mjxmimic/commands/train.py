@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     say = lambda text: print(f"mjxmimic train: {text}", file=sys.stderr, flush=True)  # noqa: E731
     import jax
 
-    env = None
+    env = start_file = None
     if not resume:
         # Read the character and the clips before anything is said or written: a bad clip is
         # then the only line, and leaves no folder.
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     if not resume:
         env = ImitationEnv(config, *inputs)
         say(f"env built in {time.time() - start:.0f} s (physics: {env.backend}); compiling")
-    outcome = train(config, run_dir, resume=resume, env=env, start_time=start,
+    outcome = train(config, run_dir, resume=resume, env=env, start_time=start, start=start_file,
                     progress=True if sys.stderr.isatty() else "plain")
     s = outcome.summary
     line = (f"{run_dir}: {outcome.reason} after {s['samples']:,} samples, {s['iterations']} iterations, "

@@ -25,12 +25,15 @@ import shutil
 import signal
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from mjxmimic.core import config as config_lib
 from mjxmimic.core.errors import UserError
 from mjxmimic.runs import background, folder
 from mjxmimic.runs.progress import Progress
+
+if TYPE_CHECKING:
+    from mjxmimic.portable.policy_file import PolicyFile
 
 
 # a step whose loss is not finite has written NaN into the parameters
@@ -122,10 +125,12 @@ def best_score(config: config_lib.Config, result: dict) -> tuple[str, float]:
 
 def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
           env_factory: Callable | None = None, start_time: float | None = None,
-          progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None) -> Outcome:
+          progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None,
+          start: PolicyFile | None = None) -> Outcome:
     """Train (or continue) the run in `run_dir`, holding its writer lock. `env`/`env_factory`
     default to mjxmimic.envs.mjx_env.make_env (tests pass a stand-in). `start_time`: the command's
-    start (time-to-skill counts from it)."""
+    start (time-to-skill counts from it). `start`: run.init_from's policy, where the caller has
+    read and checked it already (mjxmimic.runs.warm_start.read_start); else it is read here."""
     deadline = _sweep_deadline()  # checked before the run folder is touched
     with folder.writer_lock(run_dir):
         if not resume and folder.holds_run(run_dir):
@@ -133,8 +138,8 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
         if resume and (done := _finished(run_dir, config)) is not None:
             return done
         try:
-            outcome = _train(config, run_dir, resume=resume, env=env, env_factory=env_factory,
-                             start_time=start_time, progress=progress, on_iteration=on_iteration, deadline=deadline)
+            outcome = _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
+                             progress=progress, on_iteration=on_iteration, deadline=deadline, start=start)
         except KeyboardInterrupt:  # a second Ctrl-C: at once
             raise
         except Exception as err:  # wherever it strikes: a checkpoint, an evaluation's best, a log row
@@ -162,7 +167,8 @@ def _finished(run_dir: Path, config: config_lib.Config) -> Outcome | None:
 
 def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_factory: Callable | None,
            start_time: float | None, progress: bool | str,
-           on_iteration: Callable[[int, dict], None] | None, deadline: float | None) -> Outcome:
+           on_iteration: Callable[[int, dict], None] | None, deadline: float | None,
+           start: PolicyFile | None) -> Outcome:
     t_start = time.time() if start_time is None else start_time
     import jax
 
@@ -180,8 +186,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         env_factory = functools.partial(make_env, run_dir=run_dir)  # a resume reads the clips the run kept
     if env is None:
         env = env_factory(config)
-    fresh = not resume or checkpoint.latest_checkpoint(run_dir) is None
-    start = _read_start(config, run_dir) if fresh and config.run.init_from else None  # before compiling
     trainer = make_trainer(env, config)
     run_cfg = config.run
     graded = config_lib.evaluation_config(config)  # training-only perturbations off (pushes, randomisation)
@@ -226,16 +230,18 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         ts = trainer.place(restored)
         # rows written after that checkpoint (a crash, kill -9) would repeat its steps
         metrics_log.truncate(run_dir, int(meta["env_steps"]))
-    if start is not None and not resume:
-        from mjxmimic.runs.warm_start import apply_start
-
-        ts = trainer.place(apply_start(ts, start, config))
-    if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
-        folder.write_config(run_dir, config)  # only once the restore has succeeded
     if not resume:
         from mjxmimic.envs.mjx_env import load_env_inputs
 
-        _, clips, weights = load_env_inputs(config, run_dir)  # those kept by a start that never checkpointed
+        character, clips, weights = load_env_inputs(config, run_dir)  # those kept by a start that never checkpointed
+        if config.run.init_from:
+            from mjxmimic.runs.warm_start import apply_start, read_start
+
+            start = start or read_start(config, character, [c.name for c in clips])
+            ts = trainer.place(apply_start(ts, start, config))
+    if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
+        folder.write_config(run_dir, config)  # only once the restore (or the start) has succeeded
+    if not resume:
         folder.keep_clips(run_dir, clips, weights)
     prior_elapsed = float(meta.get("elapsed_seconds", 0.0))
     env_steps = int(meta.get("env_steps", 0))
@@ -262,14 +268,15 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
 
     best = folder.read_best(run_dir) if resume else None
 
-    # a policy still short of the full pushes of its curriculum is not yet the push-trained one
-    best_from = config.env.push_start_samples + config.env.push_ramp_samples
+    # a policy still short of the full pushes of its curriculum is not yet the push-trained one, and
+    # a started one (run.init_from) is the source's until it has trained
+    best_from = max(config.env.push_start_samples + config.env.push_ramp_samples, int(bool(config.run.init_from)))
 
     def keep_if_best(result: dict) -> bool:
         """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
         so that best.json never names a checkpoint that is not there); whether it was the best."""
         nonlocal best
-        if env_steps < best_from or (env_steps == 0 and config.run.init_from):  # that one is the source's
+        if env_steps < best_from:
             return False
         metric, value = best_score(config, result)
         # the recorded best is scored again: a run resumed under other task weights compares alike
@@ -412,15 +419,6 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
     exit_code = {"interrupted": stop.exit_code}.get(reason, 0)
     return Outcome(exit_code=exit_code, reason=reason, env_steps=env_steps, iterations=iterations,
                    summary=out, final_eval=final, call_iterations=iterations - iterations_before)
-
-
-def _read_start(config: config_lib.Config, run_dir: Path) -> Any:
-    """The policy file that run.init_from names, checked against this run (mjxmimic.runs.warm_start)."""
-    from mjxmimic.envs.mjx_env import load_env_inputs
-    from mjxmimic.runs.warm_start import read_start
-
-    character, clips, _ = load_env_inputs(config, run_dir)
-    return read_start(config, character, [c.name for c in clips])
 
 
 def _sweep_deadline() -> float | None:
