@@ -508,6 +508,22 @@ def test_a_push_curriculum_keeps_no_best_before_its_pushes_are_full(tmp_path):
     assert folder.read_best(run_dir)["checkpoint"] >= 3072
 
 
+def test_run_best_from_samples_keeps_no_best_before_it(tmp_path):
+    """run.best_from_samples: the best is taken from that many samples on (a fine-tuning whose
+    first evaluations, before it has learnt what it trains for, would score highest)."""
+    from mjxmimic.runs import folder
+
+    run_dir = tmp_path / "run"
+    config = config_lib.apply_overrides(_standin_config(total_samples=5120, eval_every=1024), {
+        "run.best_from_samples": 3072, "ppo.learning_rate": 0.5})  # the first evaluations score best
+    train(config, run_dir, env=StandInEnv(), progress=False)
+    nr = {r["step"]: r["eval/nr"] for r in read(run_dir) if "eval/nr" in r}
+    assert max(nr, key=nr.get) < 3072, nr
+    assert folder.read_best(run_dir)["checkpoint"] >= 3072
+    with pytest.raises(UserError, match="run.best_from_samples"):
+        config_lib.apply_overrides(config, {"run.best_from_samples": 5120})
+
+
 def test_a_task_run_keeps_the_best_of_what_it_trains_for():
     from mjxmimic.runs.train_loop import best_score
 

@@ -46,7 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="start a new run from the networks and observation normaliser of a policy file or a "
                              "run folder (its policy.npz, else its best checkpoint; run.init_from), e.g. to go on "
                              "training a learnt skill with pushes; the optimiser and the schedule start afresh, so set "
-                             "ppo.learning_rate near the source's last (the gpu preset ends at 3e-5)")
+                             "ppo.learning_rate well below the gpu preset's 3e-4 start (it ends at 3e-5); "
+                             "run.best_from_samples keeps the best from later on")
     parser.add_argument("--wandb", metavar="PROJECT", default=None,
                         help="also log to this Weights & Biases project (run.wandb_project; the wandb extra; "
                              "WANDB_MODE=offline without network)")

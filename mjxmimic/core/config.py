@@ -245,6 +245,10 @@ class RunConfig:
     # a policy file or run folder whose networks and observation normaliser start a new run
     # (mjxmimic.runs.warm_start: fine-tuning a learnt skill with pushes, terrain or a task); "" = none
     init_from: str = ""
+    # no evaluation before this many samples is kept as the best checkpoint (what export, play and
+    # the push test take), e.g. the end of a fine-tuning's pushes; besides that, a run never keeps
+    # one from before its pushes reach full force (env.push_start_samples + env.push_ramp_samples)
+    best_from_samples: int = 0
 
 
 @dataclasses.dataclass(frozen=True)

@@ -146,6 +146,8 @@ def validate(config: Config) -> None:
         (run.checkpoint_every > 0, "run.checkpoint_every", "must be positive"),
         (run.eval_episodes >= 1, "run.eval_episodes", "must be at least 1"),
         (run.max_seconds >= 0, "run.max_seconds", "must be >= 0"),
+        (0 <= run.best_from_samples < run.total_samples, "run.best_from_samples",
+         "must be >= 0 and below run.total_samples (no evaluation after it could be kept as the best)"),
         (0 <= run.target_nr <= 1, "run.target_nr", "must be in [0, 1] (an NR; 0 = never stop early)"),
         (0 <= run.seed <= SEED_MAX, "run.seed", f"must be in 0..{SEED_MAX}"),
     ]

@@ -268,9 +268,11 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
 
     best = folder.read_best(run_dir) if resume else None
 
-    # a policy still short of the full pushes of its curriculum is not yet the push-trained one, and
-    # a started one (run.init_from) is the source's until it has trained
-    best_from = max(config.env.push_start_samples + config.env.push_ramp_samples, int(bool(config.run.init_from)))
+    # a policy still short of the full pushes of its curriculum is not yet the push-trained one, a
+    # started one (run.init_from) is the source's until it has trained, and run.best_from_samples
+    # puts the bound later still
+    best_from = max(config.env.push_start_samples + config.env.push_ramp_samples, int(bool(config.run.init_from)),
+                    config.run.best_from_samples)
 
     def keep_if_best(result: dict) -> bool:
         """Checkpoint into RUN/best, then record the evaluation in RUN/best.json (in that order,
