@@ -17,7 +17,12 @@
 # the same fine-tuning on two more seeds and a measure of how far one seed's run moves between two
 # runs (against b200 0.847 and b200_s1 0.859); they end next session (FINAL=1 packs them).
 #   b200r    preset backflip, 200 M, seed 0    b200r_s1  the same, seed 1
-# Carried (ignored folders): .clips/ (DeepMimic's motions), .data/ (b200_s2.npz).
+# Ran as one call of 566 s wall (SECONDS 530) after fourteen transfer calls: ftP and ftN finished
+# and were graded on MJX-Warp (their MuJoCo C tests were cut off by the call's end), ftPlo had not
+# passed its compilation and ftNlo had trained three iterations. The host then went back, idle for
+# 30 s while the results were read, with every run on it: the block ended there, and
+# calls_s36_x2.sh took what it had shown further. Records: experiments/robustness/fine_tune/.
+# Carried (ignored folders): .clips/ (DeepMimic's motions), .data/b200_s2.npz.
 set -u
 source=".data/b200_s2.npz"
 tune="--clip backflip --preset gpu --init-from $source --set run.seed=2 --set run.total_samples=40000000 \

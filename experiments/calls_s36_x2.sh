@@ -11,6 +11,8 @@
 # 80 M samples, pushes ramped over 40 M (no checkpoint before 40 M is kept as the best) and
 # stopped at 70 M, bcSM's pushes otherwise, at two learning rates (fresh optimiser):
 #   ftR   cosine 1e-4 -> 3e-5          ftS   cosine 3e-4 -> 3e-5 (the preset's schedule)
+# Ran as calls of 519 s (SECONDS 495) and 311 s wall (PACK=policies, SECONDS 420) after fourteen
+# transfer calls: both runs ended in the second call and were graded there in full.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), .data/b200_s2.npz.
 set -u
 tune="--clip backflip --preset gpu --init-from .data/b200_s2.npz --set run.seed=2 \
