@@ -53,7 +53,9 @@ train() {  # NAME ARGS...
   local left=$(( deadline - $(date +%s) )) folder=--out
   if [ -f "runs/$name/eval.json" ] || { [[ $name == warm_* ]] && [ -d "runs/$name" ]; }; then return; fi  # done
   if [ "$left" -le "${min_left:-0}" ]; then echo "runs/$name: not started, $left s left in this call"; return; fi
-  if [ -f "runs/$name/config.json" ]; then  # resumed (one without a checkpoint starts over with its config): of ARGS, only what a resume may change
+  # resumed (a run stopped before its first checkpoint starts over from its config): of ARGS,
+  # only what a resume may change
+  if [ -f "runs/$name/config.json" ]; then
     folder=--resume
     local keep=()
     while [ $# -gt 0 ]; do
