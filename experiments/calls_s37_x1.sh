@@ -9,7 +9,11 @@
 # could score in that form (experiments/paper_form/reference_velocity_suite.json): spin (0.664,
 # bound 0.945), roll (0.735, 0.945), getup_faceup (0.838, 0.984) and cartwheel (0.804, 0.974).
 # The gpu preset otherwise, 100 M samples, seed 0; no grades here (MuJoCo C on the CPU machine).
-# Carried (ignored folders): .clips/ (DeepMimic's motions).
+# Ran as calls of 550 s (SECONDS 520), 211 s (525), 556 s (535) and 104 s (PACK=policies, 250)
+# after fourteen transfer calls. The second call carried no .clips, so getupP and cartP stopped at
+# once with "unknown clip" (spinP and rollP resumed from their own copies and ended there); they
+# started in the third call and ended in the fourth. No grades on the GPU.
+# Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 paper="--preset gpu --set reward.kind=paper"
 PACK=${PACK:-none} bash experiments/device_train.sh "$1" \

@@ -33,16 +33,29 @@ def evaluations(run: Path) -> list[dict]:
     return [r for r in rows if "eval/nr_paper" in r]
 
 
+def config_of(run: Path) -> dict:
+    path = run / "config.json"
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def clip_of(run: Path) -> str:
+    """The clip the run trained on: its config's, else the folder's name (the suite's folders)."""
+    return config_of(run).get("clip", {}).get("name", run.name)
+
+
 def row(run: Path) -> str:
     evals = evaluations(run)
-    clip = run.name
+    clip = clip_of(run)
     paper = PAPER_NR.get(clip)
     best = max(evals, key=lambda r: r["eval/nr_paper"])
     reached = next((r for r in evals if paper is not None and r["eval/nr_paper"] >= paper), None)
     at = reached or best
     verdict = "yes" if reached else "no"
     last = evals[-1]
-    return (f"| {clip} | {paper if paper is not None else '-'} | {best['eval/nr_paper']:.3f} | {best['eval/nr']:.3f} "
+    # eval/nr is the training form's NR: the released form's only where the run trained on it
+    released = "-" if config_of(run).get("reward", {}).get("kind") == "paper" else f"{best['eval/nr']:.3f}"
+    name = clip if clip == run.name else f"{run.name} ({clip})"
+    return (f"| {name} | {paper if paper is not None else '-'} | {best['eval/nr_paper']:.3f} | {released} "
             f"| {verdict} | {at['step'] / 1e6:.0f} M | {at['wall']:.0f} s | {last['eval/nr_paper']:.3f} "
             f"| {last['step'] / 1e6:.0f} M | {last['eval/fall_rate']:.2f} |")
 
