@@ -22,7 +22,8 @@
 # already, is skipped, and so is a grade with less than GRADE_MIN seconds (default 75: the MJX push
 # test and the export fit; the MuJoCo C tests run on while time is left) left in the call. The
 # call's report lists each run's grades under its evaluations.
-# Clips come from .clips/ (carried with the call) unless MJXMIMIC_CLIPS names another folder.
+# Clips come from .clips/ (carried with the call) unless MJXMIMIC_CLIPS names another folder;
+# without either, only resumed runs (which keep their own copies) find theirs, so say so.
 # A NAME that starts with "warm_" only builds and compiles (run.max_seconds=1), so that the
 # runs after it load their programs from the compilation cache. Runs that are done (eval.json)
 # and warm-ups that ran are skipped.
@@ -38,6 +39,7 @@ seconds=$1; shift
 deadline=$(( $(date +%s) + seconds ))
 export PYTHONUNBUFFERED=1
 if [ -z "${MJXMIMIC_CLIPS:-}" ] && [ -d .clips ]; then export MJXMIMIC_CLIPS=$PWD/.clips; fi
+[ -n "${MJXMIMIC_CLIPS:-}" ] || echo "device_train.sh: no .clips/ carried and no MJXMIMIC_CLIPS: new runs of DeepMimic's clips will not find them"
 GRADE_WORKERS=${GRADE_WORKERS:-$(( $(nproc) > 3 ? $(nproc) / 2 - 1 : 1 ))}
 GRADE_MIN=${GRADE_MIN:-75}
 # the GPUs this script may use: those CUDA_VISIBLE_DEVICES names, else all of the machine's
