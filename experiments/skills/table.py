@@ -1,5 +1,6 @@
 """The skill-suite table: for each run folder given (default: the folders beside this script), its
-paper-form NR beside DeepMimic's Table 2, its released-form NR, the samples and seconds to reach
+paper-form NR beside DeepMimic's Table 2 (the clip from its config), its released-form NR (none
+for a run trained on the paper form, whose eval/nr is that form's), the samples and seconds to reach
 the paper's NR (or its best within the run), the final evaluation and its fall rate; then the
 frame strip of each run that has one (RUN/strip.png, from `mjxmimic render RUN/policy.npz --out
 RUN/strip.png --ghost --seconds CLIP_SECONDS`). Runs recorded before the tenth session of
