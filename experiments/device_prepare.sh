@@ -16,7 +16,7 @@ rm -rf .clips && cp -r "$shared/deepmimic/motions" .clips
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
-  --platform manylinux_2_28_x86_64 -d "$tmp" warp-lang==1.18.0 2> /dev/null
+  --platform manylinux_2_28_x86_64 -d "$tmp" warp-lang==1.18.0
 echo "$md5  $tmp/$wheel" | md5sum -c --quiet
 split -n 12 -d -a 2 "$tmp/$wheel" "$tmp/part."
 folders=(.wp0 .wp1 .wp2 .wp3 .wp4 .wp5 .wp6 .wp7 .wp8 .wp9 .wpc .wpd)
@@ -24,7 +24,7 @@ for i in "${!folders[@]}"; do
   rm -rf "${folders[$i]}" && mkdir "${folders[$i]}" && mv "$tmp/part.$(printf %02d "$i")" "${folders[$i]}/"
 done
 
-bash "$shared/tools/gpu-wheels.sh" > /dev/null 2>&1
+bash "$shared/tools/gpu-wheels.sh" > /dev/null
 rm -rf .wpa .wpb && mkdir .wpa .wpb
 mv .whl/mujoco_core-*.whl .wpa/
 rm .whl/mujoco_studio-*.whl .whl/pyopengl-*.whl
