@@ -34,19 +34,10 @@ def evaluations(run: Path) -> list[dict]:
     return [r for r in rows if "eval/nr_paper" in r]
 
 
-def config_of(run: Path) -> dict:
-    path = run / "config.json"
-    return json.loads(path.read_text()) if path.is_file() else {}
-
-
-def clip_of(run: Path) -> str:
-    """The clip the run trained on: its config's, else the folder's name (the suite's folders)."""
-    return config_of(run).get("clip", {}).get("name", run.name)
-
-
 def row(run: Path) -> str:
     evals = evaluations(run)
-    clip = clip_of(run)
+    config = json.loads((run / "config.json").read_text()) if (run / "config.json").is_file() else {}
+    clip = config.get("clip", {}).get("name", run.name)  # the suite's folders are named after theirs
     paper = PAPER_NR.get(clip)
     best = max(evals, key=lambda r: r["eval/nr_paper"])
     reached = next((r for r in evals if paper is not None and r["eval/nr_paper"] >= paper), None)
@@ -54,7 +45,7 @@ def row(run: Path) -> str:
     verdict = "yes" if reached else "no"
     last = evals[-1]
     # eval/nr is the training form's NR: the released form's only where the run trained on it
-    released = "-" if config_of(run).get("reward", {}).get("kind") == "paper" else f"{best['eval/nr']:.3f}"
+    released = "-" if config.get("reward", {}).get("kind") == "paper" else f"{best['eval/nr']:.3f}"
     name = clip if clip == run.name else f"{run.name} ({clip})"
     return (f"| {name} | {paper if paper is not None else '-'} | {best['eval/nr_paper']:.3f} | {released} "
             f"| {verdict} | {at['step'] / 1e6:.0f} M | {at['wall']:.0f} s | {last['eval/nr_paper']:.3f} "
