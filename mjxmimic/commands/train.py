@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     say = lambda text: print(f"mjxmimic train: {text}", file=sys.stderr, flush=True)  # noqa: E731
     import jax
 
-    env = start_file = None
+    env = init_policy = None
     if not resume:
         # Read the character and the clips before anything is said or written: a bad clip is
         # then the only line, and leaves no folder.
@@ -144,8 +144,8 @@ def run(args: argparse.Namespace) -> int:
         if config.run.init_from:
             from mjxmimic.runs.warm_start import read_start
 
-            start_file = read_start(config, inputs[0], [c.name for c in inputs[1]])
-            training = start_file.manifest.get("training", {})
+            init_policy = read_start(config, inputs[0], [c.name for c in inputs[1]])
+            training = init_policy.manifest.get("training", {})
             nr = training.get("eval", {}).get("nr")
             say(f"starting from {config.run.init_from} (trained {training.get('samples', 0):,} samples"
                 + (f", NR {nr:.3f})" if nr is not None else ")"))
@@ -155,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     if not resume:
         env = ImitationEnv(config, *inputs)
         say(f"env built in {time.time() - start:.0f} s (physics: {env.backend}); compiling")
-    outcome = train(config, run_dir, resume=resume, env=env, start_time=start, start=start_file,
+    outcome = train(config, run_dir, resume=resume, env=env, start_time=start, init_policy=init_policy,
                     progress=True if sys.stderr.isatty() else "plain")
     s = outcome.summary
     line = (f"{run_dir}: {outcome.reason} after {s['samples']:,} samples, {s['iterations']} iterations, "

@@ -126,10 +126,10 @@ def best_score(config: config_lib.Config, result: dict) -> tuple[str, float]:
 def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env=None,
           env_factory: Callable | None = None, start_time: float | None = None,
           progress: bool | str = True, on_iteration: Callable[[int, dict], None] | None = None,
-          start: PolicyFile | None = None) -> Outcome:
+          init_policy: PolicyFile | None = None) -> Outcome:
     """Train (or continue) the run in `run_dir`, holding its writer lock. `env`/`env_factory`
     default to mjxmimic.envs.mjx_env.make_env (tests pass a stand-in). `start_time`: the command's
-    start (time-to-skill counts from it). `start`: run.init_from's policy, where the caller has
+    start (time-to-skill counts from it). `init_policy`: run.init_from's policy, where the caller has
     read and checked it already (mjxmimic.runs.warm_start.read_start); else it is read here."""
     deadline = _sweep_deadline()  # checked before the run folder is touched
     with folder.writer_lock(run_dir):
@@ -138,8 +138,9 @@ def train(config: config_lib.Config, run_dir: Path, *, resume: bool = False, env
         if resume and (done := _finished(run_dir, config)) is not None:
             return done
         try:
-            outcome = _train(config, run_dir, resume=resume, env=env, env_factory=env_factory, start_time=start_time,
-                             progress=progress, on_iteration=on_iteration, deadline=deadline, start=start)
+            outcome = _train(config, run_dir, resume=resume, env=env, env_factory=env_factory,
+                             start_time=start_time, progress=progress, on_iteration=on_iteration,
+                             deadline=deadline, init_policy=init_policy)
         except KeyboardInterrupt:  # a second Ctrl-C: at once
             raise
         except Exception as err:  # wherever it strikes: a checkpoint, an evaluation's best, a log row
@@ -168,7 +169,7 @@ def _finished(run_dir: Path, config: config_lib.Config) -> Outcome | None:
 def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_factory: Callable | None,
            start_time: float | None, progress: bool | str,
            on_iteration: Callable[[int, dict], None] | None, deadline: float | None,
-           start: PolicyFile | None) -> Outcome:
+           init_policy: PolicyFile | None) -> Outcome:
     t_start = time.time() if start_time is None else start_time
     import jax
 
@@ -237,8 +238,8 @@ def _train(config: config_lib.Config, run_dir: Path, *, resume: bool, env, env_f
         if config.run.init_from:
             from mjxmimic.runs.warm_start import apply_start, read_start
 
-            start = start or read_start(config, character, [c.name for c in clips])
-            ts = trainer.place(apply_start(ts, start, config))
+            init_policy = init_policy or read_start(config, character, [c.name for c in clips])
+            ts = trainer.place(apply_start(ts, init_policy, config))
     if not resume or folder.load_config(run_dir) != config:  # a resume may change run.* keys
         folder.write_config(run_dir, config)  # only once the restore (or the start) has succeeded
     if not resume:
