@@ -8,17 +8,15 @@
 set -euo pipefail
 cd "$(git rev-parse --show-toplevel)"
 shared=${SHARED:-../shared}
-wheel=warp_lang-1.18.0-py3-none-manylinux_2_28_x86_64.whl
-md5=47fc34ed07880e32d2964187ad4de4cd
 
 rm -rf .clips && cp -r "$shared/deepmimic/motions" .clips
 
+# gpu-warp.sh fetches and checks the wheel in four parts (.wl1 to .wl4); split it again in twelve
+bash "$shared/tools/gpu-warp.sh" > /dev/null
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
-  --platform manylinux_2_28_x86_64 -d "$tmp" warp-lang==1.18.0
-echo "$md5  $tmp/$wheel" | md5sum -c --quiet
-split -n 12 -d -a 2 "$tmp/$wheel" "$tmp/part."
+cat .wl1/part.* .wl2/part.* .wl3/part.* .wl4/part.* > "$tmp/wheel" && rm -rf .wl1 .wl2 .wl3 .wl4
+split -n 12 -d -a 2 "$tmp/wheel" "$tmp/part."
 folders=(.wp0 .wp1 .wp2 .wp3 .wp4 .wp5 .wp6 .wp7 .wp8 .wp9 .wpc .wpd)
 for i in "${!folders[@]}"; do
   rm -rf "${folders[$i]}" && mkdir "${folders[$i]}" && mv "$tmp/part.$(printf %02d "$i")" "${folders[$i]}/"
