@@ -1,7 +1,9 @@
 """The time-to-skill table of `s14/` (issue 20): per run, its GPUs, seed, samples and seconds to
 the target NR (or its best NR when it never got there), its start (first iteration done), its
 evaluations' seconds and its steady samples/s; then the medians per setting and their ratios,
-also as they would be if the evaluations, and the start, took no time.
+also as they would be if the evaluations, and the start, took no time; last, per setting, the
+training reward at equal PPO iterations (the records keep every 100th iteration's row), to show
+whether a setting learns per iteration or per sample.
 
     python experiments/multi_gpu/time_to_skill.py [experiments/multi_gpu/s14]
 """
@@ -26,6 +28,24 @@ def run_row(folder: Path) -> dict:
             "best_nr": max(r["eval/nr"] for r in evals), "start_s": int(start.group(1)),
             "eval_s": sum(r["eval/eval_seconds"] for r in evals),
             "samples_per_s": end["run/samples_per_s_steady"]}
+
+
+def per_iteration(root: Path, iterations: tuple[int, ...] = (110, 210, 310, 410)) -> None:
+    """Mean training reward (the stochastic policy's imitation reward per step), samples and
+    seconds since the start at the same iterations, over each setting's runs that got there."""
+    rows_by_setting: dict[str, list[dict]] = {}
+    for folder in sorted(f for f in root.iterdir() if f.is_dir()):
+        rows = {r["iteration"]: r for r in map(json.loads, open(folder / "metrics.jsonl")) if "reward" in r}
+        rows_by_setting.setdefault(SETTINGS[folder.name.rsplit("_s", 1)[0]], []).append(rows)
+    print("\n| setting | iteration | runs | samples | training reward | seconds since the start |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for setting, runs in rows_by_setting.items():
+        for it in iterations:
+            at = [run[it] for run in runs if it in run]
+            if at:
+                mean = lambda key: statistics.mean(r[key] for r in at)  # noqa: E731
+                print(f"| {setting} | {it} | {len(at)} | {mean('step') / 1e6:.1f} M | {mean('reward'):.3f} | "
+                      f"{mean('wall'):.0f} s |")
 
 
 def main(root: Path) -> None:
@@ -70,4 +90,6 @@ def main(root: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent / "s14")
+    folder = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent / "s14"
+    main(folder)
+    per_iteration(folder)
