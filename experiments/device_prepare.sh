@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Prepares, in a new checkout, the ignored folders that a device block carries (experiments/README.md,
-# "device time"): .clips/ (a copy of ../shared/deepmimic/motions), warp-lang's wheel in twelve parts
-# of 12.4 MB (.wp0 to .wp9, .wpc, .wpd: one a transfer call, so that each call stays under 64 MiB
-# with the tree) and gpu-wheels.sh's wheels in two (.wpa: mujoco-core; .wpb: the others but the
-# render-only mujoco-studio and PyOpenGL). Folders already there are made again.
+# "device time"): .clips/ (a copy of ../shared/deepmimic/motions) and the wheels the GPU machine
+# lacks (gpu-warp.sh's warp-lang, gpu-wheels.sh's others but the render-only mujoco-studio and
+# PyOpenGL) as one tar split in parts, one part a folder (.wp0, .wp1, ... .wp9, .wpa, ...), each
+# small enough to go in one transfer call beside the tracked tree (a call carries at most 64 MiB:
+# on 2026-11-29 a tree of 55.05 MB as a tar with a part of 12.40 MB was refused, with one of 10.96 MB
+# taken). Folders already there are made again. Prints the parts' count and the tar's md5, to
+# check on the machine after the last part.
 #   bash experiments/device_prepare.sh
 set -euo pipefail
 cd "$(git rev-parse --show-toplevel)"
@@ -11,21 +14,29 @@ shared=${SHARED:-../shared}
 
 rm -rf .clips && cp -r "$shared/deepmimic/motions" .clips
 
-# gpu-warp.sh fetches and checks the wheel in four parts (.wl1 to .wl4); split it again in twelve
-bash "$shared/tools/gpu-warp.sh" > /dev/null
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-cat .wl1/part.* .wl2/part.* .wl3/part.* .wl4/part.* > "$tmp/wheel" && rm -rf .wl1 .wl2 .wl3 .wl4
-split -n 12 -d -a 2 "$tmp/wheel" "$tmp/part."
-folders=(.wp0 .wp1 .wp2 .wp3 .wp4 .wp5 .wp6 .wp7 .wp8 .wp9 .wpc .wpd)
-for i in "${!folders[@]}"; do
-  rm -rf "${folders[$i]}" && mkdir "${folders[$i]}" && mv "$tmp/part.$(printf %02d "$i")" "${folders[$i]}/"
-done
-
+# gpu-warp.sh fetches and checks warp-lang's wheel in four parts (.wl1 to .wl4)
+bash "$shared/tools/gpu-warp.sh" > /dev/null
+mkdir "$tmp/whl"
+cat .wl1/part.* .wl2/part.* .wl3/part.* .wl4/part.* > "$tmp/whl/warp_lang-1.18.0-py3-none-manylinux_2_28_x86_64.whl"
+rm -rf .wl1 .wl2 .wl3 .wl4
 bash "$shared/tools/gpu-wheels.sh" > /dev/null
-rm -rf .wpa .wpb && mkdir .wpa .wpb
-mv .whl/mujoco_core-*.whl .wpa/
 rm .whl/mujoco_studio-*.whl .whl/pyopengl-*.whl
-mv .whl/*.whl .wpb/ && rmdir .whl
-du -sh .clips .wp? | tr '\n' ' '; echo
+mv .whl/*.whl "$tmp/whl/" && rmdir .whl
+tar cf "$tmp/wheels.tar" -C "$tmp" whl
+
+# the tracked tree as a tar, and 1 MiB to spare, leave the room for one part
+tree_kib=$(( $(git ls-files -z | tar cf - --null -T - | wc -c) / 1024 ))
+part_kib=$(( 64 * 1024 - tree_kib - 1024 ))
+[ "$part_kib" -gt 1024 ] || { echo "device_prepare.sh: the tracked tree ($tree_kib KiB) leaves no room for a part" >&2; exit 1; }
+rm -rf .wp?
+split -b "${part_kib}K" -d -a 2 "$tmp/wheels.tar" "$tmp/part."
+names=(0 1 2 3 4 5 6 7 8 9 a b c d e f g h i j k l m n o p q r s t u v w x y z)
+i=0
+for part in "$tmp"/part.*; do
+  mkdir ".wp${names[$i]}" && mv "$part" ".wp${names[$i]}/"
+  i=$((i + 1))
+done
+echo "$i parts (.wp0 to .wp${names[$((i - 1))]}) of at most $part_kib KiB; md5 of the tar: $(md5sum < "$tmp/wheels.tar" | cut -c 1-32)"
 git status --short --ignored .clips .wp? | head -n 1 | grep -q '^!!' || echo "device_prepare.sh: these folders are not ignored by git" >&2
