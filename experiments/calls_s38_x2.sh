@@ -20,6 +20,11 @@
 #     0.703 at 100 M was still rising), then the punch on it with 100 M (punchP).
 # A lane starts a run only while 30 s of the call are left, so that ftT never starts (and takes
 # its networks) from a b200_s2 stopped at a call's end.
+# Ran as calls of 339 s (2gpu, SECONDS 510: the bench, the warm-up and b2a_s6; b2a_s7 and b2a_s8
+# found 181 s left and did not start), 541 s (lanes, 530) and 554 s (PACK=policies lanes, 535)
+# after sixteen transfer calls: every lane run ended in the last call; grade_ftT's MJX push test
+# finished there, its MuJoCo C tests and grade_b200_s2 did not (run on the CPU machine instead).
+# The one-GPU mode did not run.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 bf="--clip backflip --preset gpu --set run.total_samples=100000000 --set run.target_nr=0.75"
