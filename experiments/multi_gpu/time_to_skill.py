@@ -1,11 +1,11 @@
-"""The time-to-skill table of `s14/` (issue 20): per run, its GPUs, seed, samples and seconds to
+"""The time-to-skill table of `s14/` and `s38/` (issue 20): per run, its GPUs, seed, samples and seconds to
 the target NR (or its best NR when it never got there), its start (first iteration done), its
 evaluations' seconds and its steady samples/s; then the medians per setting and their ratios,
 also as they would be if the evaluations, and the start, took no time; last, per setting, the
 training reward at equal PPO iterations (the records keep every 100th iteration's row), to show
 whether a setting learns per iteration or per sample.
 
-    python experiments/multi_gpu/time_to_skill.py [experiments/multi_gpu/s14]
+    python experiments/multi_gpu/time_to_skill.py [FOLDER ...]     # default: s14 and s38
 """
 
 import json
@@ -30,11 +30,15 @@ def run_row(folder: Path) -> dict:
             "samples_per_s": end["run/samples_per_s_steady"]}
 
 
-def per_iteration(root: Path, iterations: tuple[int, ...] = (110, 210, 310, 410)) -> None:
+def run_folders(roots: list[Path]) -> list[Path]:
+    return sorted((f for root in roots for f in root.iterdir() if f.is_dir()), key=lambda f: f.name)
+
+
+def per_iteration(roots: list[Path], iterations: tuple[int, ...] = (110, 210, 310, 410)) -> None:
     """Mean training reward (the stochastic policy's imitation reward per step), samples and
     seconds since the start at the same iterations, over each setting's runs that got there."""
     rows_by_setting: dict[str, list[dict]] = {}
-    for folder in sorted(f for f in root.iterdir() if f.is_dir()):
+    for folder in run_folders(roots):
         rows = {r["iteration"]: r for r in map(json.loads, open(folder / "metrics.jsonl")) if "reward" in r}
         rows_by_setting.setdefault(SETTINGS[folder.name.rsplit("_s", 1)[0]], []).append(rows)
     print("\n| setting | iteration | runs | samples | training reward | seconds since the start |")
@@ -48,8 +52,8 @@ def per_iteration(root: Path, iterations: tuple[int, ...] = (110, 210, 310, 410)
                       f"{mean('wall'):.0f} s |")
 
 
-def main(root: Path) -> None:
-    rows = [run_row(f) for f in sorted(root.iterdir()) if f.is_dir()]
+def main(roots: list[Path]) -> None:
+    rows = [run_row(f) for f in run_folders(roots)]
     print("| run | GPUs and setting | seed | samples to NR 0.75 | seconds to NR 0.75 | first iteration done | "
           "evaluations | steady samples/s |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")
@@ -90,6 +94,7 @@ def main(root: Path) -> None:
 
 
 if __name__ == "__main__":
-    folder = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent / "s14"
-    main(folder)
-    per_iteration(folder)
+    here = Path(__file__).parent
+    folders = [Path(a) for a in sys.argv[1:]] or [here / "s14", here / "s38"]
+    main(folders)
+    per_iteration(folders)
