@@ -4,8 +4,6 @@
 #   bash experiments/calls_s38_x2.sh 2gpu SECONDS                  # call A: both GPUs, one run at a time
 #   bash experiments/calls_s38_x2.sh lanes SECONDS                 # then: one lane a GPU; runs stay there
 #   PACK=policies bash experiments/calls_s38_x2.sh lanes SECONDS   # the last: every run's best policy back
-#   bash experiments/calls_s38_x2.sh one SECONDS                   # on one H200 instead: issue 17's lane,
-#                                                                  # then punchP, one run at a time
 # Issue 20 (phase 2gpu): the backflip's time to NR 0.75 on two GPUs, setting "a" (twice the envs
 # and minibatches), for seeds 6 to 8, whose 1-GPU runs are in multi_gpu/s14 (b1_s6 .. b1_s8), as
 # b2a_s2 .. b2a_s5 there: the 2-GPU bench first (the train loop at 16384 envs, which also fills
@@ -24,7 +22,6 @@
 # found 181 s left and did not start), 541 s (lanes, 530) and 554 s (PACK=policies lanes, 535)
 # after sixteen transfer calls: every lane run ended in the last call; grade_ftT's MJX push test
 # finished there, its MuJoCo C tests and grade_b200_s2 did not (run on the CPU machine instead).
-# The one-GPU mode did not run.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 bf="--clip backflip --preset gpu --set run.total_samples=100000000 --set run.target_nr=0.75"
@@ -40,10 +37,6 @@ if [ "$1" = 2gpu ]; then
   PACK=none bash experiments/device_train.sh "$2" \
     "@0,1/200 bench_2gpu|--preset gpu --clip walk --kinds train_loop --num-envs 16384;warm_2a|$two_a;\
 b2a_s6|$two_a --set run.seed=6;b2a_s7|$two_a --set run.seed=7;b2a_s8|$two_a --set run.seed=8"
-elif [ "$1" = one ]; then
-  PACK=${PACK:-none} bash experiments/device_train.sh "$2" \
-    "@0/30 b200_s2|--clip backflip --preset gpu --set run.total_samples=200000000 --set run.seed=2;ftT|$ft;grade_ftT;\
-punchP|--clip punch $paper;grade_b200_s2"
 else
   PACK=${PACK:-none} bash experiments/device_train.sh "$2" \
     "@0/30 b200_s2|--clip backflip --preset gpu --set run.total_samples=200000000 --set run.seed=2;ftT|$ft;grade_ftT;grade_b200_s2" \

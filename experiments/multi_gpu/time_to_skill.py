@@ -1,8 +1,8 @@
-"""The time-to-skill table of `s14/` and `s38/` (issue 20): per run, its GPUs, seed, samples and seconds to
-the target NR (or its best NR when it never got there), its start (first iteration done), its
-evaluations' seconds and its steady samples/s; then the medians per setting and their ratios,
-also as they would be if the evaluations, and the start, took no time; last, per setting, the
-training reward at equal PPO iterations (the records keep every 100th iteration's row), to show
+"""The time-to-skill table of `s14/` and `s38/` (issue 20): per run, its GPUs, seed, samples and
+seconds to the target NR (or its best NR when it never got there), its start (first iteration
+done), its evaluations' seconds and its steady samples/s; then the medians per setting and their
+ratios, also as they would be if the evaluations, and the start, took no time; last, per setting,
+the training reward at equal PPO iterations (of those whose rows every record kept), to show
 whether a setting learns per iteration or per sample.
 
     python experiments/multi_gpu/time_to_skill.py [FOLDER ...]     # default: s14 and s38
@@ -47,9 +47,8 @@ def per_iteration(roots: list[Path], iterations: tuple[int, ...] = (110, 210, 31
         for it in iterations:
             at = [run[it] for run in runs if it in run]
             if at:
-                mean = lambda key: statistics.mean(r[key] for r in at)  # noqa: E731
-                print(f"| {setting} | {it} | {len(at)} | {mean('step') / 1e6:.1f} M | {mean('reward'):.3f} | "
-                      f"{mean('wall'):.0f} s |")
+                step, reward, wall = (statistics.mean(r[key] for r in at) for key in ("step", "reward", "wall"))
+                print(f"| {setting} | {it} | {len(at)} | {step / 1e6:.1f} M | {reward:.3f} | {wall:.0f} s |")
 
 
 def main(roots: list[Path]) -> None:
