@@ -17,13 +17,18 @@ from pathlib import Path
 SETTINGS = {"b1": "1 GPU", "b2a": "2 GPUs, a", "b2d": "2 GPUs, d", "b2e": "2 GPUs, e"}
 
 
+def records(folder: Path) -> tuple[str, int, list[dict]]:
+    """A run folder's setting and seed (from its name, e.g. b2a_s6) and its metrics rows."""
+    setting, seed = folder.name.rsplit("_s", 1)
+    return SETTINGS[setting], int(seed), [json.loads(line) for line in open(folder / "metrics.jsonl")]
+
+
 def run_row(folder: Path) -> dict:
-    rows = [json.loads(line) for line in open(folder / "metrics.jsonl")]
+    setting, seed, rows = records(folder)
     evals = [r for r in rows if "eval/nr" in r]
     end = next(r for r in rows if "run/samples" in r)
     start = re.search(r"; (\d+) s since the start", (folder / "train.log").read_text())
-    setting, seed = folder.name.rsplit("_s", 1)
-    return {"run": folder.name, "setting": SETTINGS[setting], "seed": int(seed),
+    return {"run": folder.name, "setting": setting, "seed": seed,
             "samples_m": end["run/samples"] / 1e6, "seconds": end.get("run/time_to_skill_s"),
             "best_nr": max(r["eval/nr"] for r in evals), "start_s": int(start.group(1)),
             "eval_s": sum(r["eval/eval_seconds"] for r in evals),
@@ -39,8 +44,8 @@ def per_iteration(roots: list[Path], iterations: tuple[int, ...] = (110, 210, 31
     seconds since the start at the same iterations, over each setting's runs that got there."""
     rows_by_setting: dict[str, list[dict]] = {}
     for folder in run_folders(roots):
-        rows = {r["iteration"]: r for r in map(json.loads, open(folder / "metrics.jsonl")) if "reward" in r}
-        rows_by_setting.setdefault(SETTINGS[folder.name.rsplit("_s", 1)[0]], []).append(rows)
+        setting, _, rows = records(folder)
+        rows_by_setting.setdefault(setting, []).append({r["iteration"]: r for r in rows if "reward" in r})
     print("\n| setting | iteration | runs | samples | training reward | seconds since the start |")
     print("|---|---:|---:|---:|---:|---:|")
     for setting, runs in rows_by_setting.items():
