@@ -8,6 +8,8 @@
 #   GPU 1: the spin with 200 M (spinP's 0.611 against 0.664 was still rising at 100 M), then
 #     dance_b and crawl, 100 M each.
 # A lane starts a run only while 30 s of the call are left.
+# Ran as calls of 549 s (SECONDS 530), 557 s (545) and 558 s (PACK=policies, 522) after seventeen
+# transfer calls: every run ended in them but danceaP, stopped at 80 M samples by the last call's end.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 paper="--preset gpu --set reward.kind=paper"
