@@ -104,9 +104,10 @@ def sample(p: Any, u: Any, xp: Any) -> Any:
 
 def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any:
     """(E, obs): every expert's observation of the state `k`, each with its own clip's phase at its
-    candidate time."""
+    candidate time; each expert's reference turned and moved onto the character, as its
+    tracking error takes it (so reference_root reads no offset)."""
     one = xp.ones(1, xp.float32)
-    rows = [obs_terms.observe(spec.observations, k, motion_lib.phase(spec.lib, e, times[e], xp), xp, one)
+    rows = [obs_terms.observe(spec.observations, k, motion_lib.phase(spec.lib, e, times[e], xp), xp, one, k.qpos)
             for e in range(len(spec.lib.duration))]
     return xp.stack(rows)
 

@@ -223,11 +223,14 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion, ball: tuple[
     """The observation terms, then the goal when there is a task (DEEPMIMIC.md); `ball` (its free
     joint's qpos, qvel) for the throw task."""
     xp = physics.xp
-    onehot = None
+    onehot = ref_qpos = None
     if "skill" in spec.observations:
         onehot = (xp.arange(len(spec.lib.duration)) == motion.clip).astype(xp.float32)
+    if "reference_root" in spec.observations:
+        ref_qpos, _ = graded_reference(spec, *motion_lib.sample(spec.lib, motion.clip, motion.time, xp), kin.qpos,
+                                       motion.root_offset, xp)
     obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp,
-                            onehot)
+                            onehot, ref_qpos)
     task = spec.config.task.name
     if task == "heading":
         obs = xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])

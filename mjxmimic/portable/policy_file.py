@@ -195,6 +195,9 @@ def observation_layout(character: Character, config: config_lib.Config | None = 
         ],
         "skill": [{"name": "skill", "size": len(clip_names or [None]), "clips": clip_names,
                    "about": "one-hot of the clip to follow (the skill selector), in the order of `clips`"}],
+        "reference_root": [{"name": "reference_root", "size": 4,
+                            "about": "the reference root's horizontal offset from the root (m), root heading "
+                                     "frame, then sin and cos of the reference's heading minus the root's"}],
     }
     names = observation.parse(config.env.observations if config is not None else observation.DEFAULT)
     out = [part for name in names for part in parts[name]]

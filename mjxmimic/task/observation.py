@@ -6,6 +6,7 @@ The default, the released code's 227 numbers for the humanoid: phase; root heigh
 its position relative to the root, its forward (x) and up (z) axes, linear and angular velocity,
 all rotated into the heading frame (the rotation about the up axis that undoes the root's facing).
 `skill` adds a one-hot of the env's clip in a dataset, which a user switches at play time.
+`reference_root` adds where the reference's root is, seen from the character's.
 """
 
 from __future__ import annotations
@@ -43,12 +44,24 @@ def skill(k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None) -> Any:
     return skill_onehot
 
 
+def reference_root(k: Kin, ref_qpos: Any, xp: Any) -> Any:
+    """The reference root's horizontal offset from the character's, in the character's heading
+    frame, and the heading difference as (sin, cos). The other terms show nothing of it, so
+    without it a policy cannot steer back onto a reference it has drifted from within a cycle,
+    which the paper form's world positions grade (experiments/README.md)."""
+    yaw = quat.heading(k.qpos[3:7], xp)
+    offset = quat.rotate_yaw(ref_qpos[0:3] - k.qpos[0:3], -yaw, xp)[0:2]
+    turn = quat.heading(ref_qpos[3:7], xp) - yaw
+    return xp.concatenate([offset, xp.stack([xp.sin(turn), xp.cos(turn)]).astype(offset.dtype)])
+
+
 TERMS: dict[str, Callable[..., Any]] = {"phase": phase, "root_height": root_height, "bodies": bodies,
-                                        "skill": skill}
+                                        "skill": skill, "reference_root": reference_root}
 SIZES: dict[str, Callable[[int, int], int]] = {"phase": lambda nbody, nclips: 1,
                                                "root_height": lambda nbody, nclips: 1,
                                                "bodies": lambda nbody, nclips: 15 * (nbody - 1),
-                                               "skill": lambda nbody, nclips: nclips}
+                                               "skill": lambda nbody, nclips: nclips,
+                                               "reference_root": lambda nbody, nclips: 4}
 
 
 def parse(names: str) -> tuple[str, ...]:
@@ -67,5 +80,14 @@ def observation_size(nbody: int, names: str = DEFAULT, nclips: int = 1) -> int:
     return sum(SIZES[n](nbody, nclips) for n in parse(names))
 
 
-def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None) -> Any:
-    return xp.concatenate([skill_onehot if n == "skill" else TERMS[n](k, clip_phase, xp) for n in terms])
+def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None,
+            ref_qpos: Any = None) -> Any:
+    """The terms in order; `ref_qpos`, the reference pose as the reward grades it, for reference_root."""
+    def term(n: str) -> Any:
+        if n == "skill":
+            return skill_onehot
+        if n == "reference_root":
+            return reference_root(k, ref_qpos, xp)
+        return TERMS[n](k, clip_phase, xp)
+
+    return xp.concatenate([term(n) for n in terms])
