@@ -219,14 +219,16 @@ def released(spec: Spec, clip_time: Any) -> Any:
     return clip_time >= spec.config.task.release_s - 1e-4
 
 
-def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion, ball: tuple[Any, Any] | None = None) -> Any:
+def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion, ball: tuple[Any, Any] | None = None,
+            ref_qpos: Any = None) -> Any:
     """The observation terms, then the goal when there is a task (DEEPMIMIC.md); `ball` (its free
-    joint's qpos, qvel) for the throw task."""
+    joint's qpos, qvel) for the throw task; `ref_qpos`, the reference as the reward graded it at
+    `motion`'s time, where the caller has it (else sampled again, for reference_root)."""
     xp = physics.xp
-    onehot = ref_qpos = None
+    onehot = None
     if "skill" in spec.observations:
         onehot = (xp.arange(len(spec.lib.duration)) == motion.clip).astype(xp.float32)
-    if "reference_root" in spec.observations:
+    if "reference_root" in spec.observations and ref_qpos is None:
         ref_qpos, _ = graded_reference(spec, *motion_lib.sample(spec.lib, motion.clip, motion.time, xp), kin.qpos,
                                        motion.root_offset, xp)
     obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp,
@@ -422,7 +424,8 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
     settling = motion.settle > 0
     if settles:  # the reference root follows the character
         offset = xp.where(settling, qpos[0:2] - ref_qpos[0:2], offset)
-    ref = physics.kinematics(*graded_reference(spec, ref_qpos, ref_qvel, qpos, offset, xp))
+    graded_qpos, graded_qvel = graded_reference(spec, ref_qpos, ref_qvel, qpos, offset, xp)
+    ref = physics.kinematics(graded_qpos, graded_qvel)
     r, metrics = reward_terms.reward(spec.rewards, spec.layout, sim, ref, xp)
     if spec.config.reward.combine == "max":
         metrics["reward/own_clip"] = r
@@ -479,7 +482,7 @@ def control_step(spec: Spec, physics: Physics, state: Any, motion: Motion, actio
         motion = motion._replace(settle=xp.maximum(motion.settle - 1, 0))
     if switching:
         motion = skill_switch.maybe_switch_skill(spec, motion, t_before, qpos, done, xp, sim)
-    obs = observe(spec, physics, sim, motion, (ball_q, ball_v))
+    obs = observe(spec, physics, sim, motion, (ball_q, ball_v), None if switching else graded_qpos)
     obs = xp.where(bad, 0.0, xp.nan_to_num(obs))
     metrics = {k: xp.where(bad, 0.0, xp.nan_to_num(v)) for k, v in metrics.items()}
     if grade_paper:
