@@ -11,36 +11,24 @@ import json
 import sys
 
 import numpy as np
+from terms import policy_env, steps_up
 
 from mjxmimic.core import quat
-from mjxmimic.core.config import evaluation_config
-from mjxmimic.envs.cpu_env import CpuEnv
-from mjxmimic.runs.folder import load_policy_file
 from mjxmimic.task import reward as R
 
 
 def main() -> None:
-    pf = load_policy_file(sys.argv[1])
     episodes = int(sys.argv[2]) if len(sys.argv) > 2 else 8
-    env = CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights())
-    policy, duration, layout = pf.policy(), env.clip_duration, env.spec.layout
+    env, policy = policy_env(sys.argv[1])
+    duration, layout = env.clip_duration, env.spec.layout
     by_time: dict[int, list] = {}
     by_phase: dict[int, list] = {}
-    for t0 in env.start_times(episodes, seed=0, clip=0):
-        obs = env.reset_at(float(t0))
-        for k in range(env.eval_horizon(float(t0), 0)):
-            s = env.step(policy(obs))
-            if s.failed:
-                break
-            obs = s.obs
-            ref_qpos, ref_qvel = env.reference(env.time)
-            sim = env.physics.kinematics(env.data.qpos.copy(), env.data.qvel.copy())
-            ref = env.physics.kinematics(ref_qpos, ref_qvel)
-            turn = quat.wrap_angle(quat.heading(env.data.qpos[3:7]) - quat.heading(ref_qpos[3:7]))
-            row = (abs(np.degrees(turn)), float(R.world_end_effector_error(layout, sim, ref, np)),
-                   float(R.com_position_error(layout, sim, ref, np)))
-            by_time.setdefault(int((k + 1) * env.control_dt) // 2 * 2, []).append(row)
-            by_phase.setdefault(int(10 * (env.time % duration) / duration), []).append(row)
+    for k, sim, ref in steps_up(env, policy, episodes):
+        turn = quat.wrap_angle(quat.heading(sim.qpos[3:7]) - quat.heading(ref.qpos[3:7]))
+        row = (abs(np.degrees(turn)), float(R.world_end_effector_error(layout, sim, ref, np)),
+               float(R.com_position_error(layout, sim, ref, np)))
+        by_time.setdefault(int((k + 1) * env.control_dt) // 2 * 2, []).append(row)
+        by_phase.setdefault(int(10 * (env.time % duration) / duration), []).append(row)
 
     def table(rows: dict[int, list]) -> dict[str, list[float]]:
         return {str(key): [round(float(x), 3) for x in np.mean(v, axis=0)] for key, v in sorted(rows.items())}

@@ -9,10 +9,12 @@ exp(-scale E) per clip over the steps the character is up.
 
 import json
 import sys
+from typing import Callable, Iterator
 
 import numpy as np
 
 from mjxmimic.core.config import evaluation_config
+from mjxmimic.core.kinematics import Kin
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.runs.folder import load_policy_file
 from mjxmimic.task import reward as R
@@ -22,31 +24,42 @@ MIXED = (R.Term("pose", R.pose_error, 0.65, 2.0), R.Term("velocity", R.velocity_
 FORMS = {"paper": R.terms("paper"), "mixed": MIXED, "released": R.terms("released")}
 
 
+def policy_env(path: str) -> tuple[CpuEnv, Callable[[np.ndarray], np.ndarray]]:
+    """A policy file's evaluation env on MuJoCo C, and its policy."""
+    pf = load_policy_file(path)
+    return CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights()), pf.policy()
+
+
+def steps_up(env: CpuEnv, policy: Callable, episodes: int, clip: int = 0,
+             seconds: float = 20.0) -> Iterator[tuple[int, Kin, Kin]]:
+    """Each control step of the evaluation's first `episodes` starts while the character is up:
+    (steps since the start, its kinematics, the graded reference's)."""
+    for t0 in env.start_times(episodes, seed=0, clip=clip):
+        obs = env.reset_at(float(t0), clip=clip)
+        for k in range(min(env.eval_horizon(float(t0), clip), round(seconds / env.control_dt))):
+            s = env.step(policy(obs))
+            if s.failed:
+                break
+            obs = s.obs
+            yield (k, env.physics.kinematics(env.data.qpos.copy(), env.data.qvel.copy()),
+                   env.physics.kinematics(*env.reference(env.time)))
+
+
 def main() -> None:
-    pf = load_policy_file(sys.argv[1])
     episodes = int(sys.argv[2]) if len(sys.argv) > 2 else 4
     seconds = float(sys.argv[3]) if len(sys.argv) > 3 else 20.0
-    env = CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights())
-    policy = pf.policy()
+    env, policy = policy_env(sys.argv[1])
     out = {"policy": sys.argv[1], "episodes": episodes, "seconds": seconds, "clips": {}}
     for c, clip in enumerate(env.clips):
         sums = {f: {t.name: np.zeros(2) for t in terms} for f, terms in FORMS.items()}
         totals, steps = {f: 0.0 for f in FORMS}, 0
-        for t0 in env.start_times(episodes, seed=0, clip=c):
-            obs = env.reset_at(float(t0), clip=c)
-            for _ in range(min(env.eval_horizon(float(t0), c), round(seconds / env.control_dt))):
-                s = env.step(policy(obs))
-                if s.failed:
-                    break
-                obs = s.obs
-                sim = env.physics.kinematics(env.data.qpos.copy(), env.data.qvel.copy())
-                ref = env.physics.kinematics(*env.reference(env.time))
-                steps += 1
-                for f, terms in FORMS.items():
-                    for t in terms:
-                        e = float(t.error(env.spec.layout, sim, ref, np))
-                        sums[f][t.name] += (e, np.exp(-t.scale * e))
-                    totals[f] += float(R.reward(terms, env.spec.layout, sim, ref, np)[0])
+        for _, sim, ref in steps_up(env, policy, episodes, c, seconds):
+            steps += 1
+            for f, terms in FORMS.items():
+                for t in terms:
+                    e = float(t.error(env.spec.layout, sim, ref, np))
+                    sums[f][t.name] += (e, np.exp(-t.scale * e))
+                totals[f] += float(R.reward(terms, env.spec.layout, sim, ref, np)[0])
         out["clips"][clip.name] = {
             "steps_up": steps,
             **{f: {"reward": round(totals[f] / steps, 4),
