@@ -83,3 +83,13 @@ def test_an_exported_policy_lays_the_term_out(config, character, walk):
     pf = policy_file.make_policy_file(config, character, walk, params)
     layout = pf.manifest["observation"]["layout"]
     assert layout[-1]["name"] == "reference_root" and sum(p["size"] for p in layout) == size
+
+
+def test_the_gpu_preset_observes_the_reference_root_and_its_tasks_do_not():
+    assert make_config("gpu").env.observations == OBSERVED
+    assert make_config("gpu").reward.kind == "paper"
+    for task in ("heading", "strike", "throw"):
+        told = make_config("gpu", {"task.name": task})
+        assert (told.env.observations, told.reward.kind) == (DEFAULT, "released")
+    asked = make_config("gpu", {"task.name": "heading", "reward.kind": "paper", "env.observations": OBSERVED})
+    assert (asked.env.observations, asked.reward.kind) == (OBSERVED, "paper")
