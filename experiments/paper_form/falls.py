@@ -18,14 +18,10 @@ def main() -> None:
     starts = json.loads(open(sys.argv[2]).read())["start_times"][:episodes]
     falls = []
     for t0 in starts:
-        obs = env.reset_at(float(t0))
-        for k in range(env.eval_horizon(float(t0))):
-            s = env.step(policy(obs))
-            if s.failed:
-                falls.append({"start_s": round(t0, 3), "fell_after_s": round((k + 1) * env.control_dt, 2),
-                              "phase": round(env.time % env.clip_duration / env.clip_duration, 3)})
-                break
-            obs = s.obs
+        episode = env.episode(policy, float(t0))  # ends at the fall, where env.time then is
+        if episode["failed"]:
+            falls.append({"start_s": round(t0, 3), "fell_after_s": round(episode["steps"] * env.control_dt, 2),
+                          "phase": round(env.time % env.clip_duration / env.clip_duration, 3)})
     print(json.dumps({"policy": sys.argv[1], "episodes": len(starts), "falls": falls}, indent=1))
 
 

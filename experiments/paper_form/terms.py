@@ -13,7 +13,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from mjxmimic.core.config import evaluation_config
+from mjxmimic.core.config import apply_overrides, evaluation_config
 from mjxmimic.core.kinematics import Kin
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.runs.folder import load_policy_file
@@ -24,10 +24,11 @@ MIXED = (R.Term("pose", R.pose_error, 0.65, 2.0), R.Term("velocity", R.velocity_
 FORMS = {"paper": R.terms("paper"), "mixed": MIXED, "released": R.terms("released")}
 
 
-def policy_env(path: str) -> tuple[CpuEnv, Callable[[np.ndarray], np.ndarray]]:
-    """A policy file's evaluation env on MuJoCo C, and its policy."""
+def policy_env(path: str, overrides: dict | None = None) -> tuple[CpuEnv, Callable[[np.ndarray], np.ndarray]]:
+    """A policy file's evaluation env on MuJoCo C (its config with `overrides`), and its policy."""
     pf = load_policy_file(path)
-    return CpuEnv(evaluation_config(pf.config()), pf.character(), pf.clips(), pf.weights()), pf.policy()
+    config = apply_overrides(evaluation_config(pf.config()), overrides or {})
+    return CpuEnv(config, pf.character(), pf.clips(), pf.weights()), pf.policy()
 
 
 def steps_up(env: CpuEnv, policy: Callable, episodes: int, clip: int = 0,
