@@ -64,15 +64,16 @@ def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = 
     return result
 
 
-def load_file_policy(path: Path, progress: Callable[[str], None] | None = None) -> tuple[Any, Any, Any]:
+def load_file_policy(path: Path, progress: Callable[[str], None] | None = None,
+                     overrides: dict[str, Any] | None = None) -> tuple[Any, Any, Any]:
     """(evaluation config, env, deterministic policy fn) of an exported policy file on MJX, in the
-    conditions of its run's evaluations (its config, character and clips). The network runs in
-    jax.numpy as mjxmimic.portable.policy_numpy computes it; terrain policies (a heightmap encoder)
-    need their run folder."""
+    conditions of its run's evaluations (its config, character and clips; `overrides`, config keys,
+    change them). The network runs in jax.numpy as mjxmimic.portable.policy_numpy computes it;
+    terrain policies (a heightmap encoder) need their run folder."""
     pf = folder.load_policy_file(path)
     if "conv_0" in pf.params["policy"]:
         raise UserError(f"{path}: a terrain policy; evaluate its run folder instead")
-    config = config_lib.evaluation_config(pf.config())
+    config = config_lib.apply_overrides(config_lib.evaluation_config(pf.config()), overrides or {})
     if progress is not None:
         progress("building the env")
 
