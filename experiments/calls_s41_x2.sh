@@ -13,6 +13,10 @@
 # The first call also evaluates the reference_root backflip's policy on MJX-Warp under other
 # solver iterations (experiments/paper_form/mjx_iterations.py) beside GPU 1's run.
 # Carried (ignored folders): .clips/ (DeepMimic's motions) in every call; .data/bpRR.npz in the first.
+# Ran as calls of 551 s (SECONDS 530), 557 s (545) and 440 s (PACK=policies, 465) after
+# twenty-two transfer calls; every run ended in them (the kick and the punch started in the second
+# call, the crawl at its start). The solver-iteration evaluations ran in the first call and, the
+# policy file having stayed on the machine, again in the third (mjx_iterations.json of both).
 set -u
 long="--set run.total_samples=200000000"
 if [ -f .data/bpRR.npz ] && [ -z "${SKIP_ITERATIONS:-}" ]; then
