@@ -365,7 +365,7 @@ def test_clip_nr_with_its_own_expert_is_that_expert_s_nr(composite_file, expert_
     out = composite.clip_nr(c, episodes=2, seed=4)
     for e, (name, path) in enumerate(expert_files.items()):
         pf = policy_file.read(path)
-        env = CpuEnv(pf.config(), pf.character(), pf.clip())
+        env = CpuEnv(config_lib.playback_config(pf.config()), pf.character(), pf.clip())
         span = float(env.clip_durations[0]) - (0.0 if c.loops[e] else env.control_dt)
         starts = np.random.default_rng([4, e]).uniform(0.0, span, size=2)
         alone = evaluate(env, pf.policy(), starts)

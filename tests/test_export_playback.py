@@ -396,6 +396,20 @@ def test_play_cli_reports_nr_and_ratio_without_importing_jax(policy_file):
         assert key in out
 
 
+def test_play_solves_to_convergence_unless_told(policy_file):
+    """Playback lets MuJoCo's Newton solve run to its own limits (or the training's, if higher), as
+    MJX-Warp's converges within the training's 4 iterations; --solver-iterations sets both limits."""
+    default = json.loads(_run_play(policy_file, "--episodes", "1", "--json").stdout)
+    assert default["solver_iterations"] == list(config_lib.PLAYBACK_SOLVER_ITERATIONS)
+    told = json.loads(_run_play(policy_file, "--episodes", "1", "--json", "--solver-iterations", "4").stdout)
+    assert told["solver_iterations"] == [4, 4] and told["nr"] != default["nr"]
+    bad = _run_play(policy_file, "--solver-iterations", "0")
+    assert bad.returncode == 2 and "--solver-iterations 0: must be at least 1" in bad.stderr, bad.stderr
+    higher = config_lib.make_config("cpu", {"env.solver_iterations": 300, "env.ls_iterations": 60})
+    assert config_lib.playback_config(higher).env.solver_iterations == 300
+    assert config_lib.playback_config(higher).env.ls_iterations == 60
+
+
 def test_play_push_test_without_jax(policy_file):
     result = _run_play(policy_file, "--push", "--trials", "2", "--json")
     assert result.returncode == 0, result.stderr

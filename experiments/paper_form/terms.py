@@ -13,7 +13,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from mjxmimic.core.config import apply_overrides, evaluation_config
+from mjxmimic.core.config import apply_overrides, playback_config
 from mjxmimic.core.kinematics import Kin
 from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.runs.folder import load_policy_file
@@ -25,9 +25,10 @@ FORMS = {"paper": R.terms("paper"), "mixed": MIXED, "released": R.terms("release
 
 
 def policy_env(path: str, overrides: dict | None = None) -> tuple[CpuEnv, Callable[[np.ndarray], np.ndarray]]:
-    """A policy file's evaluation env on MuJoCo C (its config with `overrides`), and its policy."""
+    """A policy file's env on MuJoCo C as `mjxmimic play` builds it (its config with `overrides`),
+    and its policy."""
     pf = load_policy_file(path)
-    config = apply_overrides(evaluation_config(pf.config()), overrides or {})
+    config = apply_overrides(playback_config(pf.config()), overrides or {})
     return CpuEnv(config, pf.character(), pf.clips(), pf.weights()), pf.policy()
 
 

@@ -44,6 +44,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="draw start times from this seed instead of using the MJX evaluation's")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--viewer", action="store_true", help="watch in MuJoCo's viewer (needs a display)")
+    parser.add_argument("--solver-iterations", type=int, default=None, metavar="N",
+                        help="MuJoCo's Newton and line-search iteration limits (default: its own, 100 and 50, "
+                             "or the training's if higher: a converged solve, as MJX-Warp's is at the "
+                             "training's 4; mjxmimic.core.config.playback_config)")
     parser.add_argument("--push", action="store_true",
                         help="the push test instead of NR: the largest 0.2 s pelvis push, forward and "
                              "sideways, that 90%% of the trials survive (EVALUATION.md)")
@@ -267,8 +271,10 @@ def run(args: argparse.Namespace) -> int:
                         "run without --viewer, or make a video with `mjxmimic render`")
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
+    if args.solver_iterations is not None and args.solver_iterations < 1:
+        raise UserError(f"--solver-iterations {args.solver_iterations}: must be at least 1")
 
-    from mjxmimic.core.config import apply_overrides, evaluation_config
+    from mjxmimic.core.config import apply_overrides, playback_config
     from mjxmimic.envs.cpu_env import CpuEnv
     from mjxmimic.portable import composite
     from mjxmimic.portable.playback import evaluate
@@ -287,7 +293,7 @@ def run(args: argparse.Namespace) -> int:
     clips = pf.clips()
     names = [c.name for c in clips]
     if args.clip is not None and args.clip in names:
-        env = CpuEnv(evaluation_config(pf.config()), character, clips, pf.weights())
+        env = CpuEnv(playback_config(pf.config(), args.solver_iterations), character, clips, pf.weights())
         return _play_clips(args, pf, env, names.index(args.clip))
     if args.clip is not None:
         from mjxmimic.motion.clip import load_clip_source
@@ -295,7 +301,8 @@ def run(args: argparse.Namespace) -> int:
         clip = load_clip_source(args.clip, character, args.clips_dir)
     elif len(clips) > 1:
         entry = {} if args.switch_entry is None else {"env.skill_switch_entry": args.switch_entry}
-        env = CpuEnv(evaluation_config(apply_overrides(pf.config(), entry)), character, clips, pf.weights())
+        env = CpuEnv(playback_config(apply_overrides(pf.config(), entry), args.solver_iterations), character, clips,
+                     pf.weights())
         from mjxmimic.portable.skills import set_switch_options
 
         set_switch_options(env, args.switch_routes, args.finish_cycle)
@@ -312,7 +319,7 @@ def run(args: argparse.Namespace) -> int:
                         ("--switch-routes", args.switch_routes), ("--finish-cycle", args.finish_cycle)):
         if given is not None:
             raise UserError(f"{flag} needs a policy trained on a dataset of clips; this one has one clip")
-    env = CpuEnv(evaluation_config(pf.config()), character, clip)
+    env = CpuEnv(playback_config(pf.config(), args.solver_iterations), character, clip)
     policy = pf.policy()
     starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)
 
@@ -332,6 +339,7 @@ def run(args: argparse.Namespace) -> int:
         "simulator": env.physics.simulator,
         "physics_hz": env.config.env.physics_hz,
         "substeps": env.substeps,
+        "solver_iterations": [env.config.env.solver_iterations, env.config.env.ls_iterations],
         "starts": label,
         **result,
         "mjx_nr": mjx_nr,
@@ -356,7 +364,8 @@ def run(args: argparse.Namespace) -> int:
                    f"({out['steps_per_s']:,.0f}/s)")),
     ]
     width = max(len(k) for k, _ in rows)
-    print(f"{pf.path} on {clip.name}, {out['simulator']}, {env.config.env.physics_hz} Hz physics")
+    print(f"{pf.path} on {clip.name}, {out['simulator']}, {env.config.env.physics_hz} Hz physics, "
+          f"solver iterations up to {out['solver_iterations'][0]} (line search {out['solver_iterations'][1]})")
     for key, value in rows:
         print(f"  {key:<{width}}  {value}")
     sys.stdout.flush()

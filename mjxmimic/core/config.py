@@ -382,6 +382,22 @@ def evaluation_config(config: Config) -> Config:
                                     "env.start_states_fraction": 0.0, "env.skill_switch_s": 0.0})
 
 
+PLAYBACK_SOLVER_ITERATIONS = (100, 50)  # MuJoCo's own defaults: Newton, line search
+
+
+def playback_config(config: Config, solver_iterations: int | None = None) -> Config:
+    """`evaluation_config` for MuJoCo's CPU simulator (play, render, the CPU push test). Its
+    Newton solve may run to MuJoCo's default limits, stopping at its tolerance: MJX-Warp, where
+    policies train, reaches a converged solve within the gpu preset's 4 iterations and MuJoCo C
+    does not, so MuJoCo C at the training's count plays other physics (experiments/README.md,
+    "Playback with a converged solve"). `solver_iterations` sets both limits instead."""
+    newton, line_search = ((solver_iterations, solver_iterations) if solver_iterations is not None
+                           else (max(PLAYBACK_SOLVER_ITERATIONS[0], config.env.solver_iterations),
+                                 max(PLAYBACK_SOLVER_ITERATIONS[1], config.env.ls_iterations)))
+    return apply_overrides(evaluation_config(config), {"env.solver_iterations": newton,
+                                                      "env.ls_iterations": line_search})
+
+
 def to_dict(config: Config) -> dict[str, dict[str, Any]]:
     return {f.name: dataclasses.asdict(getattr(config, f.name)) for f in dataclasses.fields(config)}
 

@@ -4,8 +4,9 @@ time. No JAX on this path, so an exported policy plays wherever numpy and mujoco
 
 Time is kept in float32 as on MJX, so that both sample the same reference. With a converged
 contact solve one control step agrees with MJX to < 1e-3 in every observation entry, on the
-ground and in the air (tests/test_export_playback.py); with the gpu preset's 4 Newton iterations
-the two solvers stop at different points, which the sim-to-sim NR measures.
+ground and in the air (tests/test_export_playback.py). At the gpu preset's 4 Newton iterations
+MJX-Warp's solve is converged and MuJoCo C's is not, so playback lets MuJoCo C's run on
+(mjxmimic.core.config.playback_config).
 """
 
 from __future__ import annotations

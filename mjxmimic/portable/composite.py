@@ -210,7 +210,7 @@ class Player:
 
     def __init__(self, c: Composite, temperature: float | None = None):
         self.composite = c
-        self.env = CpuEnv(c.config(), c.character(), c.clips())
+        self.env = CpuEnv(config_lib.playback_config(c.config()), c.character(), c.clips())
         self.env.terminations = COMPOSITE_TERMINATIONS
         self.gate = gate_lib.make_gate(self.env.spec, self.env.physics.kinematics,
                                        c.temperature if temperature is None else check_temperature(temperature))

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from mjxmimic.core.config import evaluation_config
+from mjxmimic.core.config import playback_config
 from mjxmimic.core.errors import UserError
 
 GHOST_PREFIX = "ghost/"
@@ -326,7 +326,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
     character = pf.character()
     switches = {}
     if skill_sequence is not None:
-        env = CpuEnv(evaluation_config(pf.config()), character, pf.clips(), pf.weights())
+        env = CpuEnv(playback_config(pf.config()), character, pf.clips(), pf.weights())
         skills.check_selectable(env)
         sequence = skills.parse_sequence(skill_sequence, [c.name for c in env.clips])
         skills.set_switch_options(env, switch_routes, finish_cycle)
@@ -334,7 +334,7 @@ def render_policy(pf, out: Path, *, ghost: bool = True, clip: Any = None, start:
         total = sum(skills.segment_steps(env, sequence))
         limit = total if seconds is None else min(total, max(1, round(seconds / env.control_dt)))
     else:
-        env = CpuEnv(evaluation_config(pf.config()), character, clip if clip is not None else pf.clip())
+        env = CpuEnv(playback_config(pf.config()), character, clip if clip is not None else pf.clip())
         limit = env.max_steps if seconds is None else max(1, round(seconds / env.control_dt))
     if push is not None and push[1] >= limit * env.control_dt:
         raise UserError(f"--push at {push[1]:g} s: the video ends at {limit * env.control_dt:g} s")
