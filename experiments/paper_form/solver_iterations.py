@@ -1,6 +1,7 @@
-"""An exported policy's NR on MuJoCo C with other solver iterations than it trained with (Newton
-and line search alike unless LS_ITERATIONS is given), from the start times of its `mjxmimic play --json` output (the MJX
-evaluation's), to tell whether a sim-to-sim gap comes from where the solvers stop.
+"""An exported policy's NR on MuJoCo C with other solver iterations than it trained with (Newton,
+and line search alike unless LS_ITERATIONS is given), from the start times of its `mjxmimic play
+--json` output (the MJX evaluation's), to tell whether a sim-to-sim gap comes from where the
+solvers stop.
 
     python experiments/paper_form/solver_iterations.py POLICY.npz PLAY.json ITERATIONS [LS_ITERATIONS]
 """
@@ -21,7 +22,8 @@ def main() -> None:
     trained = load_policy_file(path).config().env
     play = json.loads(open(play_json).read())
     result = evaluate(env, policy, [float(t) for t in play["start_times"]])
-    print(json.dumps({"policy": path, "iterations": iterations, "ls_iterations": ls_iterations, "episodes": len(play["start_times"]),
+    print(json.dumps({"policy": path, "iterations": iterations, "ls_iterations": ls_iterations,
+                      "episodes": len(play["start_times"]),
                       "nr_paper": result["nr_paper"], "fall_rate": result["fall_rate"], "mjx_nr": play["mjx_nr"],
                       "ratio": result["nr_paper"] / play["mjx_nr"],
                       "trained_iterations": [trained.solver_iterations, trained.ls_iterations],
