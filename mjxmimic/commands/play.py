@@ -5,8 +5,9 @@
 POLICY is a file from `mjxmimic export` (.npz, or .onnx with the onnx package) or a run folder
 holding policy.npz. Runs the sim-to-sim NR protocol of EVALUATION.md (mjxmimic.portable.playback): N
 episodes (default 16) with the deterministic policy, each from the reference state at its start
-time, with the training's control step (PD substepping, fall rules) on mujoco.mj_step. Start
-times are the MJX evaluation's own (carried in the file) unless --seed, --clip or more episodes
+time, with the training's control step (PD substepping, fall rules) on mujoco.mj_step, its
+contact solve run to convergence (--solver-iterations N limits it; core.config.playback_config).
+Start times are the MJX evaluation's own (carried in the file) unless --seed, --clip or more episodes
 than it ran ask for a fresh seeded draw. Reports NR, fall rate, survival, pose and end-effector
 errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
