@@ -4,6 +4,9 @@ and line search alike unless LS_ITERATIONS is given), from the start times of it
 solvers stop.
 
     python experiments/paper_form/solver_iterations.py POLICY.npz PLAY.json ITERATIONS [LS_ITERATIONS]
+
+With one count for both, `mjxmimic play POLICY.npz --episodes N --json --solver-iterations
+ITERATIONS` measures the same (since 2026-11-29); this script remains for split counts.
 """
 
 import json
