@@ -12,7 +12,7 @@ import pytest
 
 from mjxmimic.core.config import make_config
 from mjxmimic.core.errors import UserError
-from mjxmimic.learn.ppo import MIN_STD, export_params, learning_rate_at, make_trainer
+from mjxmimic.learn.ppo import export_params, learning_rate_at, make_trainer
 from standin_env import SeesPushScale, StandInEnv
 
 REPO = Path(__file__).resolve().parent.parent
@@ -48,7 +48,7 @@ def test_initial_std_and_exported_layout(trainer):
 
     obs = jax.random.normal(jax.random.PRNGKey(1), (16, env.observation_size)) * 3
     loc, s = _numpy_policy(params, obs, env.action_size)
-    std = np.log1p(np.exp(s)) + MIN_STD
+    std = np.log1p(np.exp(s)) + CONFIG.ppo.min_action_std
     np.testing.assert_allclose(std, 0.3, rtol=1e-5)  # every state starts with ppo.init_action_std
     assert np.abs(loc).max() < 0.1  # small initial mean (0.01-scaled output layer)
 
@@ -137,13 +137,46 @@ def test_std_mode(mode):
     obs = jax.random.normal(jax.random.PRNGKey(1), (16, trainer.env.observation_size)) * 3
     params = export_params(ts)
     loc, s = _numpy_policy(params, obs, trainer.env.action_size)
-    std = np.log1p(np.exp(s)) + MIN_STD
+    std = np.log1p(np.exp(s)) + config.ppo.min_action_std
     if mode == "fixed":
         np.testing.assert_allclose(std, 0.3, rtol=1e-5)
         assert float(metrics["policy/std"]) == pytest.approx(0.3, rel=1e-4)
     else:
         assert np.abs(std - 0.3).max() > 1e-3
     assert np.abs(loc).max() > 0.1  # the mean learned in both modes
+
+
+def test_min_action_std_floors_the_sampled_noise():
+    """With the std half of the output driven to softplus(s) = 0, the training policy's pre-tanh
+    noise is exactly ppo.min_action_std."""
+    config = make_config("cpu", {"ppo.init_action_std": 0.3, "ppo.min_action_std": 0.05})
+    trainer = make_trainer(StandInEnv(), config)
+    params = export_params(trainer.init(0))
+    last = params["policy"]["hidden_2"]
+    act = trainer.env.action_size
+    last["kernel"] = last["kernel"].at[:, act:].set(0.0)
+    last["bias"] = last["bias"].at[act:].set(-40.0)
+    obs = jax.random.normal(jax.random.PRNGKey(1), (4096, trainer.env.observation_size))
+    loc, _ = _numpy_policy(params, obs, act)
+    noisy = trainer.make_policy(params, deterministic=False)(obs, jax.random.PRNGKey(0))
+    spread = np.std(np.arctanh(np.asarray(noisy)) - loc)
+    assert spread == pytest.approx(0.05, rel=0.03)
+
+
+@pytest.mark.parametrize("max_kl, undone", [(1e-9, 1.0), (1e9, 0.0)])
+def test_max_kl_undoes_the_step_that_goes_too_far(max_kl, undone):
+    """Below any KL a step can keep, every step of the iteration is undone: networks and optimiser
+    stay as they were (the normaliser still learns the rollout); far above it, nothing is."""
+    trainer = make_trainer(StandInEnv(), make_config("cpu", {"ppo.max_kl": max_kl}))
+    ts = trainer.init(4)
+    before = jax.tree_util.tree_map(np.asarray, (ts.params, ts.optimizer_state, ts.normalizer.mean))
+    ts, metrics = trainer.train_step(ts)
+    after = jax.tree_util.tree_map(np.asarray, (ts.params, ts.optimizer_state, ts.normalizer.mean))
+    assert float(metrics["ppo/steps_undone"]) == undone
+    same = [np.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(before[:2]),
+                                                 jax.tree_util.tree_leaves(after[:2]))]
+    assert all(same) == bool(undone)
+    assert not np.array_equal(before[2], after[2])
 
 
 @pytest.mark.parametrize("precision", ["default", "BF16_BF16_F32"])

@@ -221,6 +221,14 @@ class PPOConfig:
     # "learned": the std is an output of the policy, trained with it; "fixed": it stays
     # init_action_std in every state (DeepMimic's fixed exploration noise)
     std_mode: str = "learned"
+    # the learned std never falls below this (NormalTanhDistribution's min_std, added to the
+    # softplus; Brax's default 0.001): a std far below the mean's step size turns one update
+    # into a huge probability ratio (DeepMimic's fixed std was 0.05)
+    min_action_std: float = 0.001
+    # a minibatch step that takes the policy further than this mean KL (on its minibatch, from
+    # the policy that gathered the batch) is undone, and the iteration's later steps are
+    # skipped; 0 = never
+    max_kl: float = 0.0
     # the networks' matrix products in rollouts and updates, as JAX's dot algorithm presets:
     # "default" (XLA's choice), "BF16_BF16_F32", "TF32_TF32_F32" (GPU only) or "F32_F32_F32";
     # physics and the reward are not affected

@@ -13,7 +13,9 @@ One call of `Trainer.train_step(ts)` is one PPO iteration, all on device, no hos
      with the stochastic policy; the env auto-resets inside its own `step`;
   2. observation normaliser update with the rollout's observations (before SGD, as Brax does);
   3. `ppo.num_epochs` epochs, each a fresh shuffle of whole env trajectories into
-     `ppo.num_minibatches` minibatches, one adam step per minibatch.
+     `ppo.num_minibatches` minibatches, one adam step per minibatch; with ppo.max_kl, a step
+     that takes the policy further than that KL from the gathering policy (on its minibatch) is
+     undone and the iteration's later steps skipped (ppo/steps_undone: their share).
 The input TrainState is donated. Timeouts (state.info["truncation"] = 1) are handled as in Brax:
 the truncated transition is masked out of GAE (no false "failure" value target of 0); falls and
 clip ends are terminations (value target 0 beyond them).
@@ -26,9 +28,9 @@ are global). Minibatch shuffling permutes within each device's shard and every m
 equal slice from every device, so no trajectory crosses devices.
 
 Initial action std. Brax's `NormalTanhDistribution` splits the policy output into (loc, s) and
-uses std = softplus(s) + 0.001 (pre-tanh). After the usual init, the last policy layer is
-changed: kernel columns of the std half are set to 0 and their bias to
-softplus^-1(ppo.init_action_std - 0.001), so every state starts with exactly that std; kernel
+uses std = softplus(s) + ppo.min_action_std (pre-tanh). After the usual init, the last policy
+layer is changed: kernel columns of the std half are set to 0 and their bias to
+softplus^-1(ppo.init_action_std - ppo.min_action_std), so every state starts with exactly that std; kernel
 columns of the mean half are scaled by 0.01 (initial actions near 0, as in DeepMimic's 0.01
 output init). With ppo.std_mode=learned both halves train (the std can become state
 dependent); with fixed the std half never changes.
@@ -43,7 +45,7 @@ Exported parameters (`export_params(ts)`, a plain pytree of float32 arrays) and 
     h = relu(z @ kernel_0 + bias_0) ... for every hidden layer; out = h @ kernel_L + bias_L
     loc, s = out[:act], out[act:]
     deterministic action = tanh(loc)           (the evaluation / playback policy)
-    stochastic action    = tanh(loc + (softplus(s) + 0.001) * N(0, 1))
+    stochastic action    = tanh(loc + (softplus(s) + ppo.min_action_std) * N(0, 1))
 The action is in [-1, 1]; the env turns it into PD targets (times env.action_scale).
 """
 
@@ -69,15 +71,13 @@ from brax.training import types as brax_types  # noqa: E402
 from brax.training.acme import running_statistics  # noqa: E402
 from brax.training.agents.ppo import losses as ppo_losses  # noqa: E402
 from brax.training.agents.ppo import networks as ppo_networks  # noqa: E402
+from brax.training.distribution import NormalTanhDistribution  # noqa: E402
 from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
 
 from mjxmimic.core.config import Config, push_curriculum  # noqa: E402
 from mjxmimic.core.errors import UserError  # noqa: E402
 from mjxmimic.learn.batched_env import BATCH_AXIS, STEP_METRICS, BatchedEnv, PerDeviceEnv  # noqa: E402
 from mjxmimic.task.events import PUSH_SCALE  # noqa: E402
-
-MIN_STD = 0.001  # NormalTanhDistribution's default min_std
-
 
 @flax.struct.dataclass
 class TrainState:
@@ -106,14 +106,14 @@ def _last_layer(layers: dict) -> str:
     return f"hidden_{sum(name.startswith('hidden_') for name in layers) - 1}"
 
 
-def _init_output_layer(policy_params: dict, action_size: int, init_std: float) -> dict:
+def _init_output_layer(policy_params: dict, action_size: int, init_std: float, min_std: float) -> dict:
     """Set the initial std exactly and shrink the initial mean (see the module docstring)."""
     layers = policy_params["params"]
     last = _last_layer(layers)
     kernel, bias = layers[last]["kernel"], layers[last]["bias"]
     kernel = jnp.concatenate([kernel[:, :action_size] * 0.01, jnp.zeros_like(kernel[:, action_size:])], axis=1)
     bias = jnp.concatenate([jnp.zeros_like(bias[:action_size]),
-                            jnp.full_like(bias[action_size:], _softplus_inverse(init_std - MIN_STD))])
+                            jnp.full_like(bias[action_size:], _softplus_inverse(init_std - min_std))])
     new_layers = {**layers, last: {"kernel": kernel, "bias": bias}}
     return {**policy_params, "params": new_layers}
 
@@ -230,7 +230,7 @@ class Trainer:
         cfg = self.config.ppo
         k_policy, k_value = jax.random.split(key)
         policy = self.networks.policy_network.init(k_policy)
-        policy = _init_output_layer(policy, self.env.action_size, cfg.init_action_std)
+        policy = _init_output_layer(policy, self.env.action_size, cfg.init_action_std, cfg.min_action_std)
         value = self.networks.value_network.init(k_value)
         params = ppo_losses.PPONetworkParams(policy=policy, value=value)
         normalizer = running_statistics.init_state(
@@ -323,6 +323,13 @@ class Trainer:
         info = dict(env_state.info, **{PUSH_SCALE: jnp.full_like(env_state.info[PUSH_SCALE], scale)})
         return env_state.replace(info=info), {"curriculum/push_scale": scale}
 
+    def _kl_from_behaviour(self, normalizer: Any, policy_params: Any, batch: Any) -> jax.Array:
+        """Mean KL of `policy_params`' action distribution from the one that gathered `batch`."""
+        dist = self.networks.parametric_action_distribution
+        logits = self.networks.policy_network.apply(normalizer, policy_params, batch.observation)
+        behaviour = dist.create_dist(batch.extras["policy_extras"]["distribution_params"])
+        return jnp.mean(dist.create_dist(logits).kl_divergence(behaviour))
+
     def _train_step(self, ts: TrainState, values: dict) -> tuple[TrainState, dict]:
         cfg = self.config.ppo
         key, k_unroll, k_sgd = jax.random.split(ts.key, 3)
@@ -369,23 +376,31 @@ class Trainer:
         update = in_precision(gradients.gradient_update_fn(loss_fn, optimizer, pmap_axis_name=None,
                                                            has_aux=True), cfg.matmul_precision)
 
+        kl_from_behaviour = in_precision(functools.partial(self._kl_from_behaviour, normalizer),
+                                         cfg.matmul_precision)
+
         def minibatch_step(carry, batch):
-            params, opt_state, k = carry
+            params, opt_state, k, stopped = carry
             k, k_loss = jax.random.split(k)
-            (_, loss_metrics), params, opt_state = update(params, normalizer, batch, k_loss,
-                                                          optimizer_state=opt_state)
-            return (params, opt_state, k), loss_metrics
+            (_, loss_metrics), new_params, new_opt_state = update(params, normalizer, batch, k_loss,
+                                                                  optimizer_state=opt_state)
+            if cfg.max_kl > 0:  # undo this step, and skip the rest, once the policy went too far
+                stopped = stopped | (kl_from_behaviour(new_params.policy, batch) > cfg.max_kl)
+                keep_old = lambda new, old: jax.tree_util.tree_map(lambda a, b: jnp.where(stopped, b, a), new, old)
+                new_params, new_opt_state = keep_old(new_params, params), keep_old(new_opt_state, opt_state)
+                loss_metrics = dict(loss_metrics, steps_undone=stopped.astype(jnp.float32))
+            return (new_params, new_opt_state, k, stopped), loss_metrics
 
         def epoch(carry, _):
-            params, opt_state, k = carry
+            params, opt_state, k, stopped = carry
             k, k_perm, k_grad = jax.random.split(k, 3)
             batches = jax.tree_util.tree_map(lambda x: self._shuffle_into_minibatches(x, k_perm), data)
-            (params, opt_state, _), loss_metrics = jax.lax.scan(
-                minibatch_step, (params, opt_state, k_grad), batches)
-            return (params, opt_state, k), loss_metrics
+            (params, opt_state, _, stopped), loss_metrics = jax.lax.scan(
+                minibatch_step, (params, opt_state, k_grad, stopped), batches)
+            return (params, opt_state, k, stopped), loss_metrics
 
-        (params, opt_state, _), loss_metrics = jax.lax.scan(
-            epoch, (ts.params, ts.optimizer_state, k_sgd), None, length=cfg.num_epochs)
+        (params, opt_state, _, _), loss_metrics = jax.lax.scan(
+            epoch, (ts.params, ts.optimizer_state, k_sgd, jnp.array(False)), None, length=cfg.num_epochs)
         for name, value in loss_metrics.items():
             metrics[f"ppo/{name}"] = jnp.mean(value)
         metrics["policy/std"] = metrics.pop("ppo/policy_dist_mean_std")
@@ -418,8 +433,8 @@ def make_networks(observation_size: int, action_size: int, config: Config) -> pp
 
         return make_heightmap_networks(observation_size, action_size, config.ppo.policy_hidden,
                                        config.ppo.value_hidden, config.terrain.heightmap_shape,
-                                       running_statistics.normalize)
-    return ppo_networks.make_ppo_networks(
+                                       running_statistics.normalize, config.ppo.min_action_std)
+    networks = ppo_networks.make_ppo_networks(
         observation_size, action_size,
         preprocess_observations_fn=running_statistics.normalize,
         policy_hidden_layer_sizes=tuple(config.ppo.policy_hidden),
@@ -427,6 +442,8 @@ def make_networks(observation_size: int, action_size: int, config: Config) -> pp
         activation=linen.relu,
         distribution_type="tanh_normal",
     )
+    return networks.replace(parametric_action_distribution=NormalTanhDistribution(
+        event_size=action_size, min_std=config.ppo.min_action_std))
 
 
 def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
@@ -442,8 +459,6 @@ def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
         raise UserError(f"config key 'ppo.num_minibatches': num_envs ({cfg.num_envs}) must divide into "
                         f"{cfg.num_minibatches} minibatches on each of {d} devices "
                         f"(num_envs % (devices * num_minibatches) == 0)")
-    if cfg.init_action_std <= MIN_STD:
-        raise UserError(f"config key 'ppo.init_action_std': must be above {MIN_STD} (the minimum std)")
 
     if d > 1:
         # Shardy, JAX's default partitioner, segfaults compiling the per-device env step on GPUs
