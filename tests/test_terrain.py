@@ -154,7 +154,7 @@ def test_heightmap_policy_numpy_equals_jax():
     obs_size, act, shape = 40 + 7 * 9, 5, (7, 9)
     nets = networks.make_heightmap_networks(obs_size, act, (32, 16), (32,), shape, running_statistics.normalize)
     params = nets.policy_network.init(jax.random.PRNGKey(1))
-    params = _init_output_layer(params, act, 0.3)
+    params = _init_output_layer(params, act, 0.3, 0.001)
     assert set(params["params"]) == {"conv_0", "conv_1", "conv_2", "encoder", "hidden_0", "hidden_1", "hidden_2"}
     value = nets.value_network.init(jax.random.PRNGKey(2))
     rng = np.random.default_rng(0)

@@ -79,6 +79,7 @@ from mjxmimic.core.errors import UserError  # noqa: E402
 from mjxmimic.learn.batched_env import BATCH_AXIS, STEP_METRICS, BatchedEnv, PerDeviceEnv  # noqa: E402
 from mjxmimic.task.events import PUSH_SCALE  # noqa: E402
 
+
 @flax.struct.dataclass
 class TrainState:
     """Everything one iteration reads and writes. `env_state` is batched ([num_envs, ...])."""
