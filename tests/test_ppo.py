@@ -258,6 +258,14 @@ def test_two_devices_shard_the_batch_and_all_reduce():
         np.testing.assert_array_equal(a, b)  # parameters stay replicated
         assert ts.env_state.obs.addressable_shards[0].data.shape[0] == 16  # batch stays sharded
         assert np.mean(rewards[-5:]) > np.mean(rewards[:5]) + 0.3, rewards
+        # the KL stop reads the KL over both devices' slices: both undo the same steps
+        stop = make_trainer(StandInEnv(), make_config("cpu", {"ppo.max_kl": 1e-9}))
+        held = stop.init(1)
+        before = np.asarray(held.params.policy["params"]["hidden_0"]["kernel"])
+        held, m = stop.train_step(held)
+        assert float(m["ppo/steps_undone"]) == 1.0
+        for shard in held.params.policy["params"]["hidden_0"]["kernel"].addressable_shards:
+            np.testing.assert_array_equal(np.asarray(shard.data), before)
         print("OK", int(ts.env_steps))
     """)
     assert "OK 12800" in _on_two_cpu_devices(script, timeout=300)
