@@ -147,14 +147,14 @@ def test_heightmap_policy_numpy_equals_jax():
     from brax.training.acme import running_statistics
 
     from mjxmimic.learn import networks
-    from mjxmimic.learn.ppo import _init_output_layer
+    from mjxmimic.learn.networks import init_output_layer
     from mjxmimic.portable.policy_numpy import HEIGHTMAP_STRIDES, NumpyPolicy, NumpyValue
 
     assert HEIGHTMAP_STRIDES == tuple(s for _, _, s in networks.CONV_LAYERS)
     obs_size, act, shape = 40 + 7 * 9, 5, (7, 9)
     nets = networks.make_heightmap_networks(obs_size, act, (32, 16), (32,), shape, running_statistics.normalize)
     params = nets.policy_network.init(jax.random.PRNGKey(1))
-    params = _init_output_layer(params, act, 0.3, 0.001)
+    params = init_output_layer(params, act, 0.3, 0.001)
     assert set(params["params"]) == {"conv_0", "conv_1", "conv_2", "encoder", "hidden_0", "hidden_1", "hidden_2"}
     value = nets.value_network.init(jax.random.PRNGKey(2))
     rng = np.random.default_rng(0)

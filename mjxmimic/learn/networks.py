@@ -1,5 +1,14 @@
-"""Network factories beyond Brax's MLP: the heightmap encoder of DeepMimic's terrain policies
-(DEEPMIMIC.md: "3 conv layers ... then a 64-unit layer, joined with the state").
+"""The policy and value networks: Brax's PPO MLPs, or with terrain the heightmap encoder of
+DeepMimic's terrain policies (DEEPMIMIC.md: "3 conv layers ... then a 64-unit layer, joined with
+the state"); their initial output layer; the policy function of exported parameters.
+
+Initial action std. Brax's `NormalTanhDistribution` splits the policy output into (loc, s) and
+uses std = softplus(s) + ppo.min_action_std (pre-tanh). After the usual init, the last policy
+layer is changed (`init_output_layer`): kernel columns of the std half are set to 0 and their
+bias to softplus^-1(ppo.init_action_std - ppo.min_action_std), so every state starts with exactly
+that std; kernel columns of the mean half are scaled by 0.01 (initial actions near 0, as in
+DeepMimic's 0.01 output init). With ppo.std_mode=learned both halves train (the std can become
+state dependent); with fixed the std half never changes.
 
 The observation of a terrain env ends with the heightmap (mjxmimic.envs.step: rows x cols heights
 in the heading frame). `HeightmapMLP` splits it off, runs it through CONV_LAYERS (`PatchConv`:
@@ -16,15 +25,19 @@ strides and sizes below keep a 2 x 2 x 32 map before the dense layer on the 8 x 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from brax.training import networks as brax_networks
+from brax.training.acme import running_statistics
 from brax.training.agents.ppo import networks as ppo_networks
 from brax.training.distribution import NormalTanhDistribution
 from flax import linen
+
+from mjxmimic.core.config import Config
 
 # (filters, kernel size, stride) of each conv layer; mirrored by policy_numpy.HEIGHTMAP_CONV
 CONV_LAYERS = ((16, 4, 2), (32, 3, 2), (32, 3, 1))
@@ -100,3 +113,54 @@ def make_heightmap_networks(observation_size: int, action_size: int, policy_hidd
     return ppo_networks.PPONetworks(policy_network=_network(policy, observation_size, preprocess),
                                     value_network=_network(value, observation_size, preprocess, squeeze=True),
                                     parametric_action_distribution=dist)
+
+
+def make_networks(observation_size: int, action_size: int, config: Config) -> ppo_networks.PPONetworks:
+    """The run's networks: Brax's MLPs (relu), or the heightmap encoder's with terrain; the
+    tanh-normal policy's std floored at ppo.min_action_std."""
+    if config.terrain.kind != "none":
+        return make_heightmap_networks(observation_size, action_size, config.ppo.policy_hidden,
+                                       config.ppo.value_hidden, config.terrain.heightmap_shape,
+                                       running_statistics.normalize, config.ppo.min_action_std)
+    networks = ppo_networks.make_ppo_networks(
+        observation_size, action_size,
+        preprocess_observations_fn=running_statistics.normalize,
+        policy_hidden_layer_sizes=tuple(config.ppo.policy_hidden),
+        value_hidden_layer_sizes=tuple(config.ppo.value_hidden),
+        activation=linen.relu,
+        distribution_type="tanh_normal",
+    )
+    return networks.replace(parametric_action_distribution=NormalTanhDistribution(
+        event_size=action_size, min_std=config.ppo.min_action_std))
+
+
+def last_layer(layers: dict) -> str:
+    """The output layer's name: the last hidden_i (a heightmap policy also has conv and encoder layers)."""
+    return f"hidden_{sum(name.startswith('hidden_') for name in layers) - 1}"
+
+
+def init_output_layer(policy_params: dict, action_size: int, init_std: float, min_std: float) -> dict:
+    """Set the initial std exactly and shrink the initial mean (see the module docstring)."""
+    layers = policy_params["params"]
+    last = last_layer(layers)
+    kernel, bias = layers[last]["kernel"], layers[last]["bias"]
+    kernel = jnp.concatenate([kernel[:, :action_size] * 0.01, jnp.zeros_like(kernel[:, action_size:])], axis=1)
+    std_bias = float(np.log(np.expm1(init_std - min_std)))  # softplus^-1
+    bias = jnp.concatenate([jnp.zeros_like(bias[:action_size]), jnp.full_like(bias[action_size:], std_bias)])
+    return {**policy_params, "params": {**layers, last: {"kernel": kernel, "bias": bias}}}
+
+
+def make_policy_fn(networks: ppo_networks.PPONetworks, params: dict, deterministic: bool = True) -> Callable:
+    """fn(obs, key) -> action for `mjxmimic.learn.ppo.export_params`-style params. Deterministic: tanh(loc)."""
+    normalizer = running_statistics.NestedMeanStd(mean=params["normalizer"]["mean"],
+                                                  std=params["normalizer"]["std"])
+    policy_params = {"params": params["policy"]}
+    dist = networks.parametric_action_distribution
+
+    def policy(obs: jax.Array, key: jax.Array) -> jax.Array:
+        logits = networks.policy_network.apply(normalizer, policy_params, obs)
+        if deterministic:
+            return dist.mode(logits)
+        return dist.sample(logits, key)
+
+    return policy

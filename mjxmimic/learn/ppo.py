@@ -27,13 +27,7 @@ are replicated, and XLA inserts the all-reduces (gradients, advantage and normal
 are global). Minibatch shuffling permutes within each device's shard and every minibatch takes an
 equal slice from every device, so no trajectory crosses devices.
 
-Initial action std. Brax's `NormalTanhDistribution` splits the policy output into (loc, s) and
-uses std = softplus(s) + ppo.min_action_std (pre-tanh). After the usual init, the last policy
-layer is changed: kernel columns of the std half are set to 0 and their bias to
-softplus^-1(ppo.init_action_std - ppo.min_action_std), so every state starts with exactly that std; kernel
-columns of the mean half are scaled by 0.01 (initial actions near 0, as in DeepMimic's 0.01
-output init). With ppo.std_mode=learned both halves train (the std can become state
-dependent); with fixed the std half never changes.
+The networks, their initial action std and the policy function: mjxmimic.learn.networks.
 
 Exported parameters (`export_params(ts)`, a plain pytree of float32 arrays) and the action:
 
@@ -60,7 +54,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
-from flax import linen
 
 from mjxmimic.core.compat import patch_all
 
@@ -71,12 +64,12 @@ from brax.training import types as brax_types  # noqa: E402
 from brax.training.acme import running_statistics  # noqa: E402
 from brax.training.agents.ppo import losses as ppo_losses  # noqa: E402
 from brax.training.agents.ppo import networks as ppo_networks  # noqa: E402
-from brax.training.distribution import NormalTanhDistribution  # noqa: E402
 from jax.sharding import Mesh, NamedSharding, PartitionSpec as P  # noqa: E402
 
 from mjxmimic.core.config import Config, push_curriculum  # noqa: E402
 from mjxmimic.core.errors import UserError  # noqa: E402
 from mjxmimic.learn.batched_env import BATCH_AXIS, STEP_METRICS, BatchedEnv, PerDeviceEnv  # noqa: E402
+from mjxmimic.learn.networks import init_output_layer, last_layer, make_networks, make_policy_fn  # noqa: E402
 from mjxmimic.task.events import PUSH_SCALE  # noqa: E402
 
 
@@ -96,27 +89,6 @@ def _strip_weak_type(tree):
     """Weak-typed scalars (e.g. the normaliser's std_eps) would make a restored state look new to
     jit; give every leaf a strong dtype (as Brax's train does) so train_step compiles once."""
     return jax.tree_util.tree_map(lambda x: jnp.asarray(x).astype(jnp.asarray(x).dtype), tree)
-
-
-def _softplus_inverse(y: float) -> float:
-    return float(np.log(np.expm1(y)))
-
-
-def _last_layer(layers: dict) -> str:
-    """The output layer's name: the last hidden_i (a heightmap policy also has conv and encoder layers)."""
-    return f"hidden_{sum(name.startswith('hidden_') for name in layers) - 1}"
-
-
-def _init_output_layer(policy_params: dict, action_size: int, init_std: float, min_std: float) -> dict:
-    """Set the initial std exactly and shrink the initial mean (see the module docstring)."""
-    layers = policy_params["params"]
-    last = _last_layer(layers)
-    kernel, bias = layers[last]["kernel"], layers[last]["bias"]
-    kernel = jnp.concatenate([kernel[:, :action_size] * 0.01, jnp.zeros_like(kernel[:, action_size:])], axis=1)
-    bias = jnp.concatenate([jnp.zeros_like(bias[:action_size]),
-                            jnp.full_like(bias[action_size:], _softplus_inverse(init_std - min_std))])
-    new_layers = {**layers, last: {"kernel": kernel, "bias": bias}}
-    return {**policy_params, "params": new_layers}
 
 
 def schedule_values(config: Config) -> dict[str, np.ndarray]:
@@ -151,7 +123,7 @@ def _std_half_frozen(action_size: int) -> optax.GradientTransformation:
 
     def freeze(updates, params=None):
         layers = updates.policy["params"]
-        last = _last_layer(layers)
+        last = last_layer(layers)
         kernel, bias = layers[last]["kernel"], layers[last]["bias"]
         frozen = {"kernel": kernel.at[:, action_size:].set(0.0), "bias": bias.at[action_size:].set(0.0)}
         policy = {**updates.policy, "params": {**layers, last: frozen}}
@@ -231,7 +203,7 @@ class Trainer:
         cfg = self.config.ppo
         k_policy, k_value = jax.random.split(key)
         policy = self.networks.policy_network.init(k_policy)
-        policy = _init_output_layer(policy, self.env.action_size, cfg.init_action_std, cfg.min_action_std)
+        policy = init_output_layer(policy, self.env.action_size, cfg.init_action_std, cfg.min_action_std)
         value = self.networks.value_network.init(k_value)
         params = ppo_losses.PPONetworkParams(policy=policy, value=value)
         normalizer = running_statistics.init_state(
@@ -410,41 +382,6 @@ class Trainer:
                             env_state=env_state, key=key,
                             env_steps=ts.env_steps + self.samples_per_iteration)
         return _strip_weak_type(new_ts), metrics
-
-
-def make_policy_fn(networks: ppo_networks.PPONetworks, params: dict, deterministic: bool = True) -> Callable:
-    """fn(obs, key) -> action for `export_params`-style params. Deterministic: tanh(loc)."""
-    normalizer = running_statistics.NestedMeanStd(mean=params["normalizer"]["mean"],
-                                                  std=params["normalizer"]["std"])
-    policy_params = {"params": params["policy"]}
-    dist = networks.parametric_action_distribution
-
-    def policy(obs: jax.Array, key: jax.Array) -> jax.Array:
-        logits = networks.policy_network.apply(normalizer, policy_params, obs)
-        if deterministic:
-            return dist.mode(logits)
-        return dist.sample(logits, key)
-
-    return policy
-
-
-def make_networks(observation_size: int, action_size: int, config: Config) -> ppo_networks.PPONetworks:
-    if config.terrain.kind != "none":  # the heightmap encoder (mjxmimic.learn.networks)
-        from mjxmimic.learn.networks import make_heightmap_networks
-
-        return make_heightmap_networks(observation_size, action_size, config.ppo.policy_hidden,
-                                       config.ppo.value_hidden, config.terrain.heightmap_shape,
-                                       running_statistics.normalize, config.ppo.min_action_std)
-    networks = ppo_networks.make_ppo_networks(
-        observation_size, action_size,
-        preprocess_observations_fn=running_statistics.normalize,
-        policy_hidden_layer_sizes=tuple(config.ppo.policy_hidden),
-        value_hidden_layer_sizes=tuple(config.ppo.value_hidden),
-        activation=linen.relu,
-        distribution_type="tanh_normal",
-    )
-    return networks.replace(parametric_action_distribution=NormalTanhDistribution(
-        event_size=action_size, min_std=config.ppo.min_action_std))
 
 
 def make_trainer(env, config: Config, devices: list | None = None) -> Trainer:
