@@ -266,6 +266,18 @@ def test_two_devices_shard_the_batch_and_all_reduce():
         assert float(m["ppo/steps_undone"]) == 1.0
         for shard in held.params.policy["params"]["hidden_0"]["kernel"].addressable_shards:
             np.testing.assert_array_equal(np.asarray(shard.data), before)
+        # with the whole batch as the one minibatch (the shuffle then changes nothing), the split
+        # trains as one device would: the gradients, advantages and normaliser are global
+        one_minibatch = make_config("cpu", {"ppo.num_minibatches": 1})
+        split = make_trainer(StandInEnv(), one_minibatch)
+        whole = make_trainer(StandInEnv(), one_minibatch, jax.local_devices()[:1])
+        a, b = split.init(2), whole.init(2)
+        for _ in range(3):
+            (a, _), (b, _) = split.train_step(a), whole.train_step(b)
+        for x, y in zip(jax.tree.leaves(jax.device_get(a.params)), jax.tree.leaves(jax.device_get(b.params))):
+            np.testing.assert_allclose(x, y, atol=1e-5)
+        assert not np.allclose(jax.device_get(a.params.policy["params"]["hidden_0"]["kernel"]),
+                               jax.device_get(split.init(2).params.policy["params"]["hidden_0"]["kernel"]))
         print("OK", int(ts.env_steps))
     """)
     assert "OK 12800" in _on_two_cpu_devices(script, timeout=300)
