@@ -1,11 +1,11 @@
-"""The time-to-skill table of `s14/` and `s38/` (issue 20): per run, its GPUs, seed, samples and
+"""The time-to-skill table of `s14/`, `s38/` and `s43/` (issue 20): per run, its GPUs, seed, samples and
 seconds to the target NR (or its best NR when it never got there), its start (first iteration
 done), its evaluations' seconds and its steady samples/s; then the medians per setting and their
 ratios, also as they would be if the evaluations, and the start, took no time; last, per setting,
 the training reward at equal PPO iterations (of those whose rows every record kept), to show
 whether a setting learns per iteration or per sample.
 
-    python experiments/multi_gpu/time_to_skill.py [FOLDER ...]     # default: s14 and s38
+    python experiments/multi_gpu/time_to_skill.py [FOLDER ...]     # default: s14, s38 and s43
 """
 
 import json
@@ -14,7 +14,7 @@ import statistics
 import sys
 from pathlib import Path
 
-SETTINGS = {"b1": "1 GPU", "b2a": "2 GPUs, a", "b2d": "2 GPUs, d", "b2e": "2 GPUs, e"}
+SETTINGS = {"b1": "1 GPU", "b2a": "2 GPUs, a", "b2d": "2 GPUs, d", "b2e": "2 GPUs, e", "b2s": "2 GPUs, s"}
 
 
 def records(folder: Path) -> tuple[str, int, list[dict]]:
@@ -99,6 +99,6 @@ def main(roots: list[Path]) -> None:
 
 if __name__ == "__main__":
     here = Path(__file__).parent
-    folders = [Path(a) for a in sys.argv[1:]] or [here / "s14", here / "s38"]
+    folders = [Path(a) for a in sys.argv[1:]] or [here / "s14", here / "s38", here / "s43"]
     main(folders)
     per_iteration(folders)
