@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
 # The device block of 2026-11-30 (forty-first session) on a lent two-H200 host, after the transfer
 # and install of experiments/README.md ("device time"), in two phases:
-#   bash experiments/calls_s43_x2.sh 2gpu SECONDS                    # calls A and B: both GPUs
-#   PACK=policies bash experiments/calls_s43_x2.sh lanes SECONDS     # call C: one lane a GPU
+#   bash experiments/calls_s43_x2.sh 2gpu SECONDS                    # calls A to C: both GPUs
+#   PACK=policies bash experiments/calls_s43_x2.sh lanes SECONDS     # call D: one lane a GPU
 # Issue 20 (phase 2gpu): one GPU's batch split over two (8192 envs, 4096 a GPU: the same PPO per
 # iteration as on one GPU, iterations faster), the backflip timed to NR 0.75 as the 1-GPU runs of
 # multi_gpu/s14 were (the preset of then: released reward, plain observation, no KL stop). First,
 # once per machine, the full loop's bench on GPU 0 alone (4096 and 8192 envs; it also fills Warp's
 # kernel cache) and on both GPUs (8192 and 16384), then a warm-up that fills JAX's compilation
-# cache, then seeds 3, 4, 5, ..., each started only while 230 s of the call are left.
+# cache, then seeds 3, 4, 5, ..., each started only while MIN_LEFT (230) s of the call are left.
 # Issue 13 (phase lanes), plan item 2a: PPO's KL stop at 2 instead of the preset's 0.5, on the
 # kick (which blew up without a stop) and the crawl (70 % of its steps undone at 0.5), 100 M each.
 # Ran as calls of 404 s (2gpu 530: the benches, the warm-up and b2s_s3), 316 s (2gpu 535: b2s_s4,
