@@ -1,9 +1,9 @@
 """The time-to-skill table of `s14/`, `s38/` and `s43/` (issue 20): per run, its GPUs, seed,
 samples and seconds to the target NR (or its best NR when it never got there), its start (first
-iteration done), its evaluations' seconds and its steady samples/s; then the medians per setting and their
-ratios, also as they would be if the evaluations, and the start, took no time; last, per setting,
-the training reward at equal PPO iterations (of those whose rows every record kept), to show
-whether a setting learns per iteration or per sample.
+iteration done), its evaluations' seconds and its steady samples/s; then the medians per setting
+and their ratios, also as they would be if the evaluations, and the start, took no time; last,
+per setting, the training reward at equal PPO iterations (of those whose rows every record
+kept), to show whether a setting learns per iteration or per sample.
 
     python experiments/multi_gpu/time_to_skill.py [FOLDER ...]     # default: s14, s38 and s43
 """
