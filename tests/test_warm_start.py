@@ -99,6 +99,7 @@ def _one_line_error(capsys) -> str:
     (["--set", "ppo.value_hidden=64"], "the value network's layer hidden_1 is"),
     (["--set", "env.observations=phase,bodies"],
      "its observation does not fit this run's: part 2 is 'root_height' (1) there, 'body_position' (45) here"),
+    (["--set", "env.observation_heading=twist"], "it observes in the 'forward' heading frame, this run in the 'twist' one"),
 ])
 def test_a_source_that_does_not_fit_is_one_line_and_writes_nothing(source, tmp_path, capsys, flags, message):
     out = tmp_path / "run"

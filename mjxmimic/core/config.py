@@ -65,6 +65,10 @@ class EnvConfig:
     action_mode: str = "residual"
     action_scale: float = 1.0  # absolute: 1 spans +-pi (ball) and the range (hinge); residual: rad
     observations: str = "phase,root_height,bodies"  # observation terms, in order (mjxmimic.task.observation)
+    # the observation's heading frame: "forward", the yaw of the root's forward axis (DeepMimic's),
+    # or "twist", the twist of the root's rotation about the vertical (steady where the root faces
+    # the floor, as in the crawl)
+    observation_heading: str = "forward"
     events: str = ""  # episode events, e.g. "push" (mjxmimic.task.events); none by default
     push_force_n: float = 0.0  # horizontal force on the root (N)
     # > 0: each push's force is drawn in [push_force_n, push_force_max_n] (mjxmimic.task.events);

@@ -49,6 +49,8 @@ def validate(config: Config) -> None:
         (env.pose_termination_frame in ("world", "root"), "env.pose_termination_frame", "must be 'world' or 'root'"),
         (env.action_mode in ("absolute", "residual"), "env.action_mode", "must be 'absolute' or 'residual'"),
         (env.torque_limit in ("total", "proportional"), "env.torque_limit", "must be 'total' or 'proportional'"),
+        (env.observation_heading in ("forward", "twist"), "env.observation_heading",
+         "must be 'forward' or 'twist'"),
         (env.action_scale > 0, "env.action_scale", "must be positive"),
         (env.push_force_n >= 0, "env.push_force_n", "must be >= 0"),
         (not has_pushes(env) or env.push_force_n > 0 or env.push_force_max_n > 0, "env.events",

@@ -43,7 +43,10 @@ def com_velocity(k: Kin, body_mass: Any, xp: Any) -> Any:
     return xp.sum(body_mass[:, None] * k.linvel, axis=0) / xp.sum(body_mass)
 
 
-def root_yaw(k: Kin, xp: Any) -> Any:
-    """Heading of the root body's forward (x) axis."""
+def root_yaw(k: Kin, xp: Any, heading: str = "forward") -> Any:
+    """The root's heading: the yaw of its forward (x) axis on the ground (DeepMimic's), or with
+    `heading="twist"` the twist about the vertical of its rotation (quat.heading says why)."""
     r = k.xmat[ROOT_BODY]
+    if heading == "twist":
+        return xp.arctan2(r[1, 0] - r[0, 1], r[0, 0] + r[1, 1])
     return xp.arctan2(r[1, 0], r[0, 0])

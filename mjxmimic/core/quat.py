@@ -103,8 +103,13 @@ def from_yaw(yaw: Any, xp: Any = np) -> Any:
     return xp.stack([xp.cos(0.5 * yaw), z, z, xp.sin(0.5 * yaw)], axis=-1)
 
 
-def heading(q: Any, xp: Any = np) -> Any:
-    """Yaw of a body's forward (x) axis projected onto the ground plane."""
+def heading(q: Any, xp: Any = np, kind: str = "forward") -> Any:
+    """Yaw of a body's forward (x) axis projected onto the ground plane; or (`kind="twist"`) the
+    twist about the vertical in q's swing-twist split. The forward axis of a body that faces the
+    floor (the crawl's root) is nearly vertical, so its projection turns far with small tilts;
+    the twist is ill-defined only for a body upside down."""
+    if kind == "twist":
+        return 2.0 * xp.arctan2(q[..., 3], q[..., 0])
     forward = rotate(q, xp.asarray([1.0, 0.0, 0.0], dtype=q.dtype), xp)
     return xp.arctan2(forward[..., 1], forward[..., 0])
 

@@ -107,7 +107,8 @@ def expert_observations(spec: step_lib.Spec, k: Kin, times: Any, xp: Any) -> Any
     candidate time; each expert's reference turned and moved onto the character, as its
     tracking error takes it (so reference_root reads no offset)."""
     one = xp.ones(1, xp.float32)
-    rows = [obs_terms.observe(spec.observations, k, motion_lib.phase(spec.lib, e, times[e], xp), xp, one, k.qpos)
+    rows = [obs_terms.observe(spec.observations, k, motion_lib.phase(spec.lib, e, times[e], xp), xp, one, k.qpos,
+                              spec.config.env.observation_heading)
             for e in range(len(spec.lib.duration))]
     return xp.stack(rows)
 

@@ -231,19 +231,20 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion, ball: tuple[
     if "reference_root" in spec.observations and ref_qpos is None:
         ref_qpos, _ = graded_reference(spec, *motion_lib.sample(spec.lib, motion.clip, motion.time, xp), kin.qpos,
                                        motion.root_offset, xp)
+    heading = spec.config.env.observation_heading
     obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp,
-                            onehot, ref_qpos)
+                            onehot, ref_qpos, heading)
     task = spec.config.task.name
     if task == "heading":
-        obs = xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp)])
+        obs = xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp, heading)])
     elif task == "strike":
-        obs = xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp)])
+        obs = xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp, heading)])
     elif task == "throw":
         obs = xp.concatenate([obs, goals.throw_observation(kin, motion.goal, ball[0][:3], ball[1][:3],
-                                                           released(spec, motion.time), xp)])
+                                                           released(spec, motion.time), xp, heading)])
     if spec.terrain is not None:
         obs = xp.concatenate([obs, terrain_lib.heightmap(spec.terrain.boxes, spec.terrain.depth, spec.heightmap_offsets,
-                                                         kin.xipos[ROOT_BODY], root_yaw(kin, xp), xp)])
+                                                         kin.xipos[ROOT_BODY], root_yaw(kin, xp, heading), xp)])
     return obs
 
 

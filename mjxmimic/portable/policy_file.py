@@ -181,6 +181,8 @@ def observation_layout(character: Character, config: config_lib.Config | None = 
     bodies = list(character.body_names)
     n = len(bodies)
     frame = "heading frame (rotation about z that undoes the root's facing)"
+    if config is not None and config.env.observation_heading == "twist":
+        frame = "heading frame (rotation about z that undoes the twist of the root's rotation about z)"
     parts = {
         "phase": [{"name": "phase", "size": 1, "about": "clip phase in [0, 1)"}],
         "root_height": [{"name": "root_height", "size": 1, "about": "root body centre-of-mass height, world z (m)"}],

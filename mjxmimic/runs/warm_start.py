@@ -7,8 +7,9 @@ optimiser, the learning-rate schedule and the sample count start afresh, as in a
 normaliser keeps the statistics of the samples the source was trained on, so it moves no faster
 than it would have in the source.
 
-The source must fit the run: the same observation (character, observation terms, task, terrain),
-the same actions, the same network sizes. Anything else is a one-line error before training.
+The source must fit the run: the same observation (character, observation terms, heading frame,
+task, terrain), the same actions, the same network sizes. Anything else is a one-line error
+before training.
 """
 
 from __future__ import annotations
@@ -77,6 +78,10 @@ def read_start(config: config_lib.Config, character: Any, clip_names: list[str])
         ours = f"'{want[i][0]}' ({want[i][1]})" if i < len(want) else "nothing"
         raise UserError(f"{KEY} {source}: its observation does not fit this run's: part {i + 1} is {theirs} "
                         f"there, {ours} here (the same character, env.observations, task and terrain are needed)")
+    theirs, ours = pf.config().env.observation_heading, config.env.observation_heading
+    if theirs != ours:
+        raise UserError(f"{KEY} {source}: it observes in the {theirs!r} heading frame, this run in the {ours!r} one "
+                        f"(set env.observation_heading as the source was trained)")
     if pf.manifest["character"]["action_size"] != character.action_size:
         raise UserError(f"{KEY} {source}: its policy gives {pf.manifest['character']['action_size']} actions, "
                         f"this run's character takes {character.action_size}")

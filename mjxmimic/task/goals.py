@@ -82,8 +82,8 @@ def heading_goal(task: TaskConfig, lib: Any, clip: Any, episode_time: Any, event
     return yaw, xp.asarray(speed, xp.float32)
 
 
-def goal_observation(k: Kin, yaw: Any, speed: Any, xp: Any) -> Any:
-    relative = yaw - root_yaw(k, xp)
+def goal_observation(k: Kin, yaw: Any, speed: Any, xp: Any, heading: str = "forward") -> Any:
+    relative = yaw - root_yaw(k, xp, heading)
     return xp.stack([xp.cos(relative), xp.sin(relative), speed]).astype(xp.float32)
 
 
@@ -173,19 +173,20 @@ def throw(task: TaskConfig, ball_pos: Any, ball_vel: Any, released: Any, radius:
     return r_task, state, d, hit
 
 
-def throw_observation(k: Kin, goal: Any, ball_pos: Any, ball_vel: Any, released: Any, xp: Any) -> Any:
+def throw_observation(k: Kin, goal: Any, ball_pos: Any, ball_vel: Any, released: Any, xp: Any,
+                      heading: str = "forward") -> Any:
     """The target (on the floor) and the ball relative to the root, the ball's velocity, all in the
     heading frame; whether the ball has been let go, whether it has landed."""
-    root, turn = k.xipos[ROOT_BODY], -root_yaw(k, xp)
+    root, turn = k.xipos[ROOT_BODY], -root_yaw(k, xp, heading)
     target = xp.concatenate([goal[:2], xp.zeros_like(goal[:1])]) - root
     parts = [quat.rotate_yaw(target, turn, xp), quat.rotate_yaw(ball_pos - root, turn, xp),
              quat.rotate_yaw(ball_vel, turn, xp), xp.stack([xp.asarray(released, goal.dtype), goal[2]])]
     return xp.concatenate(parts).astype(xp.float32)
 
 
-def target_observation(k: Kin, goal: Any, xp: Any) -> Any:
+def target_observation(k: Kin, goal: Any, xp: Any, heading: str = "forward") -> Any:
     """The target relative to the root in the heading frame, and the hit flag."""
-    relative = quat.rotate_yaw(goal[:3] - k.xipos[ROOT_BODY], -root_yaw(k, xp), xp)
+    relative = quat.rotate_yaw(goal[:3] - k.xipos[ROOT_BODY], -root_yaw(k, xp, heading), xp)
     return xp.concatenate([relative, goal[3:4]]).astype(xp.float32)
 
 

@@ -4,7 +4,9 @@ via `xp`; the same functions serve training and CPU playback.
 
 The default, the released code's 227 numbers for the humanoid: phase; root height; for every body
 its position relative to the root, its forward (x) and up (z) axes, linear and angular velocity,
-all rotated into the heading frame (the rotation about the up axis that undoes the root's facing).
+all rotated into the heading frame (the rotation about the up axis that undoes the root's facing:
+by default the yaw of its forward axis, DeepMimic's; `env.observation_heading=twist` the twist
+of its rotation about the vertical, which stays steady where the root faces the floor).
 `skill` adds a one-hot of the env's clip in a dataset, which a user switches at play time.
 `reference_root` adds where the reference's root is, seen from the character's.
 """
@@ -28,8 +30,8 @@ def root_height(k: Kin, clip_phase: Any, xp: Any) -> Any:
     return k.xipos[ROOT_BODY, 2:3]
 
 
-def bodies(k: Kin, clip_phase: Any, xp: Any) -> Any:
-    yaw = -root_yaw(k, xp)
+def bodies(k: Kin, clip_phase: Any, xp: Any, heading: str = "forward") -> Any:
+    yaw = -root_yaw(k, xp, heading)
     rest = slice(1, None)
     pos = quat.rotate_yaw(k.xipos[rest] - k.xipos[ROOT_BODY], yaw, xp)
     forward = quat.rotate_yaw(k.xmat[rest, :, 0], yaw, xp)
@@ -44,14 +46,14 @@ def skill(k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None) -> Any:
     return skill_onehot
 
 
-def reference_root(k: Kin, ref_qpos: Any, xp: Any) -> Any:
+def reference_root(k: Kin, ref_qpos: Any, xp: Any, heading: str = "forward") -> Any:
     """The reference root's horizontal offset from the character's, in the character's heading
     frame, and the heading difference as (sin, cos). The other terms show nothing of it, so
     without it a policy cannot steer back onto a reference it has drifted from within a cycle,
     which the paper form's world positions grade (experiments/README.md)."""
-    yaw = quat.heading(k.qpos[3:7], xp)
+    yaw = quat.heading(k.qpos[3:7], xp, heading)
     offset = quat.rotate_yaw(ref_qpos[0:3] - k.qpos[0:3], -yaw, xp)[0:2]
-    turn = quat.heading(ref_qpos[3:7], xp) - yaw
+    turn = quat.heading(ref_qpos[3:7], xp, heading) - yaw
     return xp.concatenate([offset, xp.stack([xp.sin(turn), xp.cos(turn)]).astype(offset.dtype)])
 
 
@@ -81,13 +83,16 @@ def observation_size(nbody: int, names: str = DEFAULT, nclips: int = 1) -> int:
 
 
 def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None,
-            ref_qpos: Any = None) -> Any:
-    """The terms in order; `ref_qpos`, the reference pose as the reward grades it, for reference_root."""
+            ref_qpos: Any = None, heading: str = "forward") -> Any:
+    """The terms in order; `ref_qpos`, the reference pose as the reward grades it, for
+    reference_root; `heading`, the heading frame's (env.observation_heading)."""
     def term(n: str) -> Any:
         if n == "skill":
             return skill_onehot
         if n == "reference_root":
-            return reference_root(k, ref_qpos, xp)
+            return reference_root(k, ref_qpos, xp, heading)
+        if n == "bodies":
+            return bodies(k, clip_phase, xp, heading)
         return TERMS[n](k, clip_phase, xp)
 
     return xp.concatenate([term(n) for n in terms])
