@@ -152,7 +152,8 @@ def test_heightmap_policy_numpy_equals_jax():
 
     assert HEIGHTMAP_STRIDES == tuple(s for _, _, s in networks.CONV_LAYERS)
     obs_size, act, shape = 40 + 7 * 9, 5, (7, 9)
-    nets = networks.make_heightmap_networks(obs_size, act, (32, 16), (32,), shape, running_statistics.normalize)
+    nets = networks.make_heightmap_networks(obs_size, act, (32, 16), (32,), shape, running_statistics.normalize,
+                                            0.001)
     params = nets.policy_network.init(jax.random.PRNGKey(1))
     params = init_output_layer(params, act, 0.3, 0.001)
     assert set(params["params"]) == {"conv_0", "conv_1", "conv_2", "encoder", "hidden_0", "hidden_1", "hidden_2"}
@@ -182,7 +183,6 @@ def test_onnx_export_of_a_terrain_policy_runs_its_encoders(character, tmp_path):
     """The ONNX graph of a terrain policy (conv encoders in policy and value) computes what the
     numpy forward pass does, and reading it back gives the npz file's arrays."""
     onnx = pytest.importorskip("onnx")
-    from brax.training.acme import running_statistics
     from onnx.reference import ReferenceEvaluator
 
     from mjxmimic.learn import networks
@@ -192,9 +192,7 @@ def test_onnx_export_of_a_terrain_policy_runs_its_encoders(character, tmp_path):
     config = make_config("cpu", {"terrain.kind": "gaps", "task.name": "heading"})
     clip = load_clip_source("slow_walk", character)
     obs_size = sum(p["size"] for p in policy_file.observation_layout(character, config, [clip.name]))
-    nets = networks.make_heightmap_networks(obs_size, character.action_size, config.ppo.policy_hidden,
-                                            config.ppo.value_hidden, config.terrain.heightmap_shape,
-                                            running_statistics.normalize)
+    nets = networks.make_networks(obs_size, character.action_size, config)
     rng = np.random.default_rng(3)
     params = {"normalizer": {"mean": rng.normal(size=obs_size).astype(np.float32),
                              "std": rng.uniform(0.5, 2, obs_size).astype(np.float32)},

@@ -103,7 +103,7 @@ def _network(module: linen.Module, observation_size: int, preprocess: Any,
 
 def make_heightmap_networks(observation_size: int, action_size: int, policy_hidden: Sequence[int],
                             value_hidden: Sequence[int], heightmap_shape: Sequence[int],
-                            preprocess: Any, min_std: float = 0.001) -> ppo_networks.PPONetworks:
+                            preprocess: Any, min_std: float) -> ppo_networks.PPONetworks:
     """Brax PPO networks (tanh-normal policy, scalar value) whose policy and value both read the
     heightmap through their own encoder."""
     dist = NormalTanhDistribution(event_size=action_size, min_std=min_std)
