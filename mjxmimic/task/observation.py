@@ -13,7 +13,7 @@ of its rotation about the vertical, which stays steady where the root faces the 
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 from mjxmimic.core import quat
 from mjxmimic.core.errors import UserError
@@ -41,11 +41,6 @@ def bodies(k: Kin, clip_phase: Any, xp: Any, heading: str = "forward") -> Any:
     return xp.concatenate([xp.reshape(x, (-1,)) for x in (pos, forward, up, lin, ang)])
 
 
-def skill(k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None) -> Any:
-    """The skill selector (DEEPMIMIC.md, section 7): a one-hot of the env's clip in its dataset."""
-    return skill_onehot
-
-
 def reference_root(k: Kin, ref_qpos: Any, xp: Any, heading: str = "forward") -> Any:
     """The reference root's horizontal offset from the character's, in the character's heading
     frame, and the heading difference as (sin, cos). The other terms show nothing of it, so
@@ -57,8 +52,26 @@ def reference_root(k: Kin, ref_qpos: Any, xp: Any, heading: str = "forward") -> 
     return xp.concatenate([offset, xp.stack([xp.sin(turn), xp.cos(turn)]).astype(offset.dtype)])
 
 
-TERMS: dict[str, Callable[..., Any]] = {"phase": phase, "root_height": root_height, "bodies": bodies,
-                                        "skill": skill, "reference_root": reference_root}
+class Inputs(NamedTuple):
+    """What the terms read: the kinematics, the clip phase, the heading frame
+    (env.observation_heading), the skill selector's one-hot and the reference pose as the reward
+    grades it (for reference_root)."""
+
+    k: Kin
+    clip_phase: Any
+    xp: Any
+    heading: str = "forward"
+    skill_onehot: Any = None
+    ref_qpos: Any = None
+
+
+TERMS: dict[str, Callable[[Inputs], Any]] = {
+    "phase": lambda i: phase(i.k, i.clip_phase, i.xp),
+    "root_height": lambda i: root_height(i.k, i.clip_phase, i.xp),
+    "bodies": lambda i: bodies(i.k, i.clip_phase, i.xp, i.heading),
+    "skill": lambda i: i.skill_onehot,  # the skill selector (DEEPMIMIC.md, section 7): the clip's one-hot
+    "reference_root": lambda i: reference_root(i.k, i.ref_qpos, i.xp, i.heading),
+}
 SIZES: dict[str, Callable[[int, int], int]] = {"phase": lambda nbody, nclips: 1,
                                                "root_height": lambda nbody, nclips: 1,
                                                "bodies": lambda nbody, nclips: 15 * (nbody - 1),
@@ -84,15 +97,6 @@ def observation_size(nbody: int, names: str = DEFAULT, nclips: int = 1) -> int:
 
 def observe(terms: tuple[str, ...], k: Kin, clip_phase: Any, xp: Any, skill_onehot: Any = None,
             ref_qpos: Any = None, heading: str = "forward") -> Any:
-    """The terms in order; `ref_qpos`, the reference pose as the reward grades it, for
-    reference_root; `heading`, the heading frame's (env.observation_heading)."""
-    def term(n: str) -> Any:
-        if n == "skill":
-            return skill_onehot
-        if n == "reference_root":
-            return reference_root(k, ref_qpos, xp, heading)
-        if n == "bodies":
-            return bodies(k, clip_phase, xp, heading)
-        return TERMS[n](k, clip_phase, xp)
-
-    return xp.concatenate([term(n) for n in terms])
+    """The terms in order (`Inputs` says what they read)."""
+    inputs = Inputs(k, clip_phase, xp, heading, skill_onehot, ref_qpos)
+    return xp.concatenate([TERMS[n](inputs) for n in terms])
