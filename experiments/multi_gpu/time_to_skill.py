@@ -17,12 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-# a run's name (b1_s3: setting b1, seed 3) -> its setting, and each 2-GPU setting's 1-GPU runs of
-# the same code (2026-11-27's for s14 and s38, 2026-11-30's for s43 and s44)
-SETTINGS = {"b1": "1 GPU, code of 11-27", "b1n": "1 GPU, code of 11-30", "b2a": "2 GPUs, a",
+# a run's name (b1_s3: setting b1, seed 3) -> its setting; each 2-GPU setting against the 1-GPU runs
+# of the same code (2026-11-27's for s14 and s38, 2026-11-30's for s43 and s44), the split "s" also
+# against the older ones, as first reported
+OLD, NEW = "1 GPU, code of 11-27", "1 GPU, code of 11-30"
+SETTINGS = {"b1": OLD, "b1n": NEW, "b2a": "2 GPUs, a",
             "b2d": "2 GPUs, d", "b2e": "2 GPUs, e", "b2s": "2 GPUs, s"}
-BASELINE = {"2 GPUs, a": "1 GPU, code of 11-27", "2 GPUs, d": "1 GPU, code of 11-27",
-            "2 GPUs, e": "1 GPU, code of 11-27", "2 GPUs, s": "1 GPU, code of 11-30"}
+BASELINES = [("2 GPUs, a", OLD), ("2 GPUs, d", OLD), ("2 GPUs, e", OLD), ("2 GPUs, s", NEW), ("2 GPUs, s", OLD)]
 
 
 def records(folder: Path) -> tuple[str, int, list[dict]]:
@@ -112,7 +113,7 @@ def main(roots: list[Path]) -> None:
         print(f"- {setting}: {len(runs)} runs, {len(times)} reached the target; seconds {times}"
               + (f", cut {cut}" if cut else "")
               + (f", median {medians[setting]:.0f} s" if medians[setting] else ", median undefined (misses)"))
-    for setting, one in BASELINE.items():
+    for setting, one in BASELINES:
         if medians.get(setting) and medians.get(one):
             reached = [[r["seconds"] or r["cut_s"] for r in by_setting[s]] for s in (setting, one)]
             low, high = bootstrap_ratio(*reached)
@@ -122,7 +123,7 @@ def main(roots: list[Path]) -> None:
     # part of the gap that the second GPU's training speed cannot close (runs that reached it).
     for label, cost in (("evaluations", lambda r: r["eval_s"]),
                         ("evaluations and start", lambda r: r["eval_s"] + r["start_s"])):
-        for setting, one in BASELINE.items():
+        for setting, one in BASELINES:
             if medians.get(setting) and medians.get(one):
                 less = [statistics.median(r["seconds"] - cost(r) for r in by_setting[s] if r["seconds"])
                         for s in (setting, one)]
