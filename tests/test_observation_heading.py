@@ -18,9 +18,7 @@ from mjxmimic.motion.clip import load_clip_source
 
 
 def _about(axis: int, angle: float) -> np.ndarray:
-    q = np.zeros(4)
-    q[0], q[1 + axis] = np.cos(angle / 2), np.sin(angle / 2)
-    return q
+    return quat.from_rotvec(np.eye(3)[axis] * angle)
 
 
 def _yaws(q: np.ndarray, kind: str) -> tuple[float, float]:

@@ -28,9 +28,7 @@ def _wrapped_degrees(a: np.ndarray) -> np.ndarray:
 def steadiness(root_quats: np.ndarray, nudge_deg: float = 3.0, seed: int = 0) -> dict[str, float]:
     axes = np.random.default_rng(seed).normal(size=(len(root_quats), 3))
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    half = np.radians(nudge_deg) / 2
-    nudge = np.concatenate([np.full((len(axes), 1), np.cos(half)), axes * np.sin(half)], axis=1)
-    nudged = quat.mul(root_quats, nudge, np)
+    nudged = quat.mul(root_quats, quat.from_rotvec(axes * np.radians(nudge_deg)), np)
     forward_axis = quat.rotate(root_quats, np.array([1.0, 0.0, 0.0]), np)
     out = {"forward_axis_horizontal_min": float(np.linalg.norm(forward_axis[:, :2], axis=1).min())}
     for kind in ("forward", "twist"):
