@@ -23,7 +23,8 @@ import numpy as np
 OLD, NEW = "1 GPU, code of 11-27", "1 GPU, code of 11-30"
 SETTINGS = {"b1": OLD, "b1n": NEW, "b2a": "2 GPUs, a",
             "b2d": "2 GPUs, d", "b2e": "2 GPUs, e", "b2s": "2 GPUs, s"}
-BASELINES = [("2 GPUs, a", OLD), ("2 GPUs, d", OLD), ("2 GPUs, e", OLD), ("2 GPUs, s", NEW), ("2 GPUs, s", OLD)]
+BASELINES = [("2 GPUs, a", OLD), ("2 GPUs, d", OLD), ("2 GPUs, e", OLD),
+             ("2 GPUs, s", NEW), ("2 GPUs, s", OLD)]
 
 
 def records(folder: Path) -> tuple[str, int, list[dict]]:
@@ -113,23 +114,20 @@ def main(roots: list[Path]) -> None:
         print(f"- {setting}: {len(runs)} runs, {len(times)} reached the target; seconds {times}"
               + (f", cut {cut}" if cut else "")
               + (f", median {medians[setting]:.0f} s" if medians[setting] else ", median undefined (misses)"))
+    # each ratio, then as it would be if the evaluations, and then also the start, took no time: the
+    # part of the gap that the second GPU's training speed cannot close (runs that reached it)
     for setting, one in BASELINES:
-        if medians.get(setting) and medians.get(one):
-            reached = [[r["seconds"] or r["cut_s"] for r in by_setting[s]] for s in (setting, one)]
-            low, high = bootstrap_ratio(*reached)
-            print(f"- ratio of medians, {setting} / {one}: {medians[setting] / medians[one]:.2f} "
-                  f"(bootstrap 90 % interval {low:.2f} to {high:.2f})")
-    # What the ratio would be if the evaluations, and then also the start, took no time: the
-    # part of the gap that the second GPU's training speed cannot close (runs that reached it).
-    for label, cost in (("evaluations", lambda r: r["eval_s"]),
-                        ("evaluations and start", lambda r: r["eval_s"] + r["start_s"])):
-        for setting, one in BASELINES:
-            if medians.get(setting) and medians.get(one):
-                less = [statistics.median(r["seconds"] - cost(r) for r in by_setting[s] if r["seconds"])
-                        for s in (setting, one)]
-                print(f"- without the {label}: {setting} {less[0]:.0f} s / {one} {less[1]:.0f} s = "
-                      f"{less[0] / less[1]:.2f}")
-
+        if not (medians.get(setting) and medians.get(one)):
+            continue
+        times = ([r["seconds"] or r["cut_s"] for r in by_setting[s]] for s in (setting, one))
+        low, high = bootstrap_ratio(*times)
+        print(f"- ratio of medians, {setting} / {one}: {medians[setting] / medians[one]:.2f} "
+              f"(bootstrap 90 % interval {low:.2f} to {high:.2f})")
+        for label, cost in (("evaluations", lambda r: r["eval_s"]),
+                            ("evaluations and start", lambda r: r["eval_s"] + r["start_s"])):
+            less = [statistics.median(r["seconds"] - cost(r) for r in by_setting[s] if r["seconds"])
+                    for s in (setting, one)]
+            print(f"  - without the {label}: {less[0]:.0f} s / {less[1]:.0f} s = {less[0] / less[1]:.2f}")
 
 if __name__ == "__main__":
     here = Path(__file__).parent
