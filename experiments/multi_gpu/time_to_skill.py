@@ -129,6 +129,7 @@ def main(roots: list[Path]) -> None:
                     for s in (setting, one)]
             print(f"  - without the {label}: {less[0]:.0f} s / {less[1]:.0f} s = {less[0] / less[1]:.2f}")
 
+
 if __name__ == "__main__":
     here = Path(__file__).parent
     folders = [Path(a) for a in sys.argv[1:]] or [here / name for name in ("s14", "s38", "s43", "s44")]
