@@ -234,17 +234,18 @@ def observe(spec: Spec, physics: Physics, kin: Any, motion: Motion, ball: tuple[
     heading = spec.config.env.observation_heading
     obs = obs_terms.observe(spec.observations, kin, motion_lib.phase(spec.lib, motion.clip, motion.time, xp), xp,
                             onehot, ref_qpos, heading)
+    frame_yaw = root_yaw(kin, xp, heading)  # what a task's goal and the heightmap are seen in
     task = spec.config.task.name
     if task == "heading":
-        obs = xp.concatenate([obs, goals.goal_observation(kin, *goal(spec, motion, xp), xp, heading)])
+        obs = xp.concatenate([obs, goals.goal_observation(frame_yaw, *goal(spec, motion, xp), xp)])
     elif task == "strike":
-        obs = xp.concatenate([obs, goals.target_observation(kin, motion.goal, xp, heading)])
+        obs = xp.concatenate([obs, goals.target_observation(kin, motion.goal, frame_yaw, xp)])
     elif task == "throw":
         obs = xp.concatenate([obs, goals.throw_observation(kin, motion.goal, ball[0][:3], ball[1][:3],
-                                                           released(spec, motion.time), xp, heading)])
+                                                           released(spec, motion.time), frame_yaw, xp)])
     if spec.terrain is not None:
         obs = xp.concatenate([obs, terrain_lib.heightmap(spec.terrain.boxes, spec.terrain.depth, spec.heightmap_offsets,
-                                                         kin.xipos[ROOT_BODY], root_yaw(kin, xp, heading), xp)])
+                                                         kin.xipos[ROOT_BODY], frame_yaw, xp)])
     return obs
 
 

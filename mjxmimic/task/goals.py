@@ -52,7 +52,7 @@ from typing import Any
 
 from mjxmimic.core import quat
 from mjxmimic.core.config import TaskConfig
-from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity, root_yaw
+from mjxmimic.core.kinematics import ROOT_BODY, Kin, com_velocity
 from mjxmimic.motion import library as motion_lib
 
 GOAL_SIZE = {"": 0, "heading": 3, "strike": 4, "throw": 11}
@@ -82,8 +82,10 @@ def heading_goal(task: TaskConfig, lib: Any, clip: Any, episode_time: Any, event
     return yaw, xp.asarray(speed, xp.float32)
 
 
-def goal_observation(k: Kin, yaw: Any, speed: Any, xp: Any, heading: str = "forward") -> Any:
-    relative = yaw - root_yaw(k, xp, heading)
+def goal_observation(frame_yaw: Any, yaw: Any, speed: Any, xp: Any) -> Any:
+    """The commanded direction relative to the observation's heading frame (its yaw `frame_yaw`),
+    and the commanded speed."""
+    relative = yaw - frame_yaw
     return xp.stack([xp.cos(relative), xp.sin(relative), speed]).astype(xp.float32)
 
 
@@ -173,20 +175,20 @@ def throw(task: TaskConfig, ball_pos: Any, ball_vel: Any, released: Any, radius:
     return r_task, state, d, hit
 
 
-def throw_observation(k: Kin, goal: Any, ball_pos: Any, ball_vel: Any, released: Any, xp: Any,
-                      heading: str = "forward") -> Any:
+def throw_observation(k: Kin, goal: Any, ball_pos: Any, ball_vel: Any, released: Any, frame_yaw: Any,
+                      xp: Any) -> Any:
     """The target (on the floor) and the ball relative to the root, the ball's velocity, all in the
-    heading frame; whether the ball has been let go, whether it has landed."""
-    root, turn = k.xipos[ROOT_BODY], -root_yaw(k, xp, heading)
+    heading frame (yaw `frame_yaw`); whether the ball has been let go, whether it has landed."""
+    root, turn = k.xipos[ROOT_BODY], -frame_yaw
     target = xp.concatenate([goal[:2], xp.zeros_like(goal[:1])]) - root
     parts = [quat.rotate_yaw(target, turn, xp), quat.rotate_yaw(ball_pos - root, turn, xp),
              quat.rotate_yaw(ball_vel, turn, xp), xp.stack([xp.asarray(released, goal.dtype), goal[2]])]
     return xp.concatenate(parts).astype(xp.float32)
 
 
-def target_observation(k: Kin, goal: Any, xp: Any, heading: str = "forward") -> Any:
-    """The target relative to the root in the heading frame, and the hit flag."""
-    relative = quat.rotate_yaw(goal[:3] - k.xipos[ROOT_BODY], -root_yaw(k, xp, heading), xp)
+def target_observation(k: Kin, goal: Any, frame_yaw: Any, xp: Any) -> Any:
+    """The target relative to the root in the heading frame (yaw `frame_yaw`), and the hit flag."""
+    relative = quat.rotate_yaw(goal[:3] - k.xipos[ROOT_BODY], -frame_yaw, xp)
     return xp.concatenate([relative, goal[3:4]]).astype(xp.float32)
 
 
