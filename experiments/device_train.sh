@@ -21,7 +21,8 @@
 # by default half the machine's less one, beside the lane's next run); a run not done, or graded
 # already, is skipped, and so is a grade with less than GRADE_MIN seconds (default 75: the MJX push
 # test and the export fit; the MuJoCo C tests run on while time is left) left in the call. The
-# call's report lists each run's grades under its evaluations.
+# call's report lists each run's grades under its evaluations. GRADE_PUSH=0 leaves out both push
+# tests (the NR on MuJoCo C only).
 # Clips come from .clips/ (carried with the call) unless MJXMIMIC_CLIPS names another folder;
 # without either, only resumed runs (which keep their own copies) find theirs, so say so.
 # A NAME that starts with "warm_" only builds and compiles (run.max_seconds=1), so that the
@@ -42,6 +43,7 @@ if [ -z "${MJXMIMIC_CLIPS:-}" ] && [ -d .clips ]; then export MJXMIMIC_CLIPS=$PW
 [ -n "${MJXMIMIC_CLIPS:-}" ] || echo "device_train.sh: no .clips/ carried and no MJXMIMIC_CLIPS: new runs of DeepMimic's clips will not find them"
 GRADE_WORKERS=${GRADE_WORKERS:-$(( $(nproc) > 3 ? $(nproc) / 2 - 1 : 1 ))}
 GRADE_MIN=${GRADE_MIN:-75}
+GRADE_PUSH=${GRADE_PUSH:-1}
 # the GPUs this script may use: those CUDA_VISIBLE_DEVICES names, else all of the machine's
 if [ -n "${CUDA_VISIBLE_DEVICES:-}" ]; then IFS=, read -ra gpus <<< "$CUDA_VISIBLE_DEVICES"
 else mapfile -t gpus < <(nvidia-smi --query-gpu=index --format=csv,noheader 2>/dev/null); fi
@@ -85,13 +87,14 @@ keep_logs() {  # each run's log of this call into its folder (a run done in an e
 
 grade() {  # grade_NAME
   local run=runs/${1#grade_} left=$(( deadline - $(date +%s) ))
-  [ -f "$run/eval.json" ] && [ ! -f "$run/push_cpu.json" ] || return 0
+  local last=push_cpu.json; [ "$GRADE_PUSH" = 0 ] && last=play_cpu.json
+  [ -f "$run/eval.json" ] && [ ! -f "$run/$last" ] || return 0
   if [ "$left" -lt "$GRADE_MIN" ]; then echo "$run: not graded, $left s left in this call"; return; fi
-  timeout -k 10 "$left" python3 -m mjxmimic.cli eval "$run" --push --checkpoint best > "$run/push_mjx.log" 2>&1
+  [ "$GRADE_PUSH" = 0 ] || timeout -k 10 "$left" python3 -m mjxmimic.cli eval "$run" --push --checkpoint best > "$run/push_mjx.log" 2>&1
   XLA_PYTHON_CLIENT_PREALLOCATE=false timeout -k 10 "$left" python3 -m mjxmimic.cli export "$run" > "$run/export.log" 2>&1 \
     || return
-  local test
-  for test in play push; do
+  local test tests=(play push); [ "$GRADE_PUSH" = 0 ] && tests=(play)
+  for test in "${tests[@]}"; do
     local flags=(--json); [ $test = push ] && flags+=(--push --workers "$GRADE_WORKERS")
     (timeout -k 10 $(( deadline - $(date +%s) )) python3 -m mjxmimic.cli play "$run/policy.npz" "${flags[@]}" \
       > "$run/${test}_cpu.json.part" 2> "$run/${test}_cpu.log" && mv "$run/${test}_cpu.json.part" "$run/${test}_cpu.json") &
