@@ -1,11 +1,12 @@
 """The skill-suite table: for each run folder given (default: the folders beside this script), its
 paper-form NR beside DeepMimic's Table 2 (the clip from its config), its released-form NR (none
 for a run trained on the paper form, whose eval/nr is that form's), the samples and seconds to reach
-the paper's NR (or its best within the run), the final evaluation and its fall rate; then the
-frame strip of each run that has one (RUN/strip.png, from `mjxmimic render RUN/policy.npz --out
-RUN/strip.png --ghost --seconds CLIP_SECONDS`). Runs recorded before the tenth session of
-2026-11-26 hold the mixed paper form in eval/nr_paper (experiments/README.md); Table 2 is set
-beside whatever form the rows hold.
+the paper's NR (or its best within the run), the final evaluation and its fall rate, and the best
+policy's NR on MuJoCo C with its ratio to the MJX NR (RUN/play_cpu_64_converged.json, from
+`mjxmimic play POLICY --episodes 64 --json`, where the run has one); then the frame strip of each
+run that has one (RUN/strip.png, from `mjxmimic render RUN/policy.npz --out RUN/strip.png --ghost
+--seconds CLIP_SECONDS`). Runs recorded before the tenth session of 2026-11-26 hold the mixed paper
+form in eval/nr_paper (experiments/README.md); Table 2 is set beside whatever form the rows hold.
 
     python experiments/skills/table.py [RUN ...] > table.md
 """
@@ -15,6 +16,8 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+
+PLAY = "play_cpu_64_converged.json"  # MuJoCo C with the converged solve (experiments/README.md)
 
 # DeepMimic's Table 2 (paper-form NR), ../shared/docs/DEEPMIMIC.md
 PAPER_NR = {"walk": 0.985, "run": 0.951, "jog": 0.951, "jump": 0.947, "crawl": 0.932, "getup_facedown": 0.885,
@@ -47,17 +50,29 @@ def row(run: Path) -> str:
     # eval/nr is the training form's NR: the released form's only where the run trained on it
     released = "-" if config.get("reward", {}).get("kind") == "paper" else f"{best['eval/nr']:.3f}"
     name = clip if clip == run.name else f"{run.name} ({clip})"
+    cpu = "-"
+    if (run / PLAY).is_file():
+        played = json.loads((run / PLAY).read_text())["nr_paper"]
+        cpu = f"{played:.3f} ({played / best['eval/nr_paper']:.3f})"
     return (f"| {name} | {paper if paper is not None else '-'} | {best['eval/nr_paper']:.3f} | {released} "
             f"| {verdict} | {at['step'] / 1e6:.0f} M | {at['wall']:.0f} s | {last['eval/nr_paper']:.3f} "
-            f"| {last['step'] / 1e6:.0f} M | {last['eval/fall_rate']:.2f} |")
+            f"| {last['step'] / 1e6:.0f} M | {last['eval/fall_rate']:.2f} | {cpu} |")
+
+
+def is_run(path: Path) -> bool:
+    return (path / "metrics.jsonl").is_file() or (path / "eval.json").is_file()
 
 
 def main(paths: list[str]) -> None:
-    runs = [Path(p) for p in paths] or sorted(p for p in Path(__file__).parent.iterdir()
-                                              if (p / "metrics.jsonl").is_file() or (p / "eval.json").is_file())
+    if any(p in ("-h", "--help") for p in paths):
+        sys.exit(__doc__)
+    runs = [Path(p) for p in paths] or sorted(p for p in Path(__file__).parent.iterdir() if is_run(p))
+    for run in runs:
+        if not is_run(run):
+            sys.exit(f"table.py: {run}: not a run record (no metrics.jsonl or eval.json there)")
     print("| clip | paper NR (Table 2) | best NR, paper form | released form | reached paper | samples | "
-          "seconds | final NR, paper form | final samples | final fall rate |")
-    print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|")
+          "seconds | final NR, paper form | final samples | final fall rate | MuJoCo C (ratio) |")
+    print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---|")
     for run in runs:
         print(row(run))
     for run in runs:
