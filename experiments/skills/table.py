@@ -65,7 +65,8 @@ def is_run(path: Path) -> bool:
 
 def main(paths: list[str]) -> None:
     if any(p in ("-h", "--help") for p in paths):
-        sys.exit(__doc__)
+        print(__doc__)
+        return
     runs = [Path(p) for p in paths] or sorted(p for p in Path(__file__).parent.iterdir() if is_run(p))
     for run in runs:
         if not is_run(run):
