@@ -7,7 +7,9 @@ central differences can be set beside Table 2 under the grading that every other
     python experiments/paper_form/velocity_grade.py POLICY.npz PLAY.json > velocity_grade.json
 
 PLAY.json is `mjxmimic play POLICY.npz --json` output: its start times are replayed, and the NR
-under the policy's own setting must come out as that file's (checked, to 1e-6).
+under the policy's own setting must come out as that file's per-episode NR (checked, to 1e-6;
+that NR is the training reward's, so the policy must have trained on the paper form, as the `gpu`
+preset does).
 """
 
 import json
@@ -15,20 +17,17 @@ import sys
 
 import numpy as np
 
-from mjxmimic.core.config import playback_config
-from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.motion import library as L
-from mjxmimic.runs.folder import load_policy_file
 from mjxmimic.task import reward as R
+from terms import policy_env
 
 MODES = ("forward", "central")
 
 
 def main() -> None:
-    pf = load_policy_file(sys.argv[1])
+    env, policy = policy_env(sys.argv[1])
     played = json.loads(open(sys.argv[2]).read())
-    env = CpuEnv(playback_config(pf.config()), pf.character(), pf.clips(), pf.weights())
-    policy, terms = pf.policy(), R.terms("paper")
+    terms = R.terms("paper")
     own = env.config.clip.velocity
     libs = {mode: L.build_motion_lib(env.clips, env.character, velocity=mode) for mode in MODES}
     nr = {mode: [] for mode in MODES}
