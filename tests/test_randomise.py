@@ -458,7 +458,7 @@ def test_reset_noise_turns_every_joint_within_its_bound_alike_on_numpy_and_jax(c
     the reference's; the same pose from the same event seed on numpy (the CPU env) and JAX (MJX),
     another from another seed."""
     from mjxmimic.core import quat
-    from mjxmimic.envs import step
+    from mjxmimic.envs import starts, step
     from mjxmimic.motion.clip import load_clip_source
 
     clip, noise, t = load_clip_source("slow_walk", character), 0.3, np.float32(0.4)
@@ -466,9 +466,9 @@ def test_reset_noise_turns_every_joint_within_its_bound_alike_on_numpy_and_jax(c
     spec_np = step.build(noisy, character, [clip], np)[1]
     spec_jax = step.build(noisy, character, [clip], jnp)[1]
     plain = step.build(make_config("cpu"), character, [clip], np)[1]
-    ref_q, ref_v = step.start_state(plain, 0, t, np.float32(0.37), np)
-    q, v = step.start_state(spec_np, 0, t, np.float32(0.37), np)
-    q_jax = np.asarray(step.start_state(spec_jax, 0, jnp.float32(t), jnp.float32(0.37), jnp)[0])
+    ref_q, ref_v = starts.start_state(plain, 0, t, np.float32(0.37), np)
+    q, v = starts.start_state(spec_np, 0, t, np.float32(0.37), np)
+    q_jax = np.asarray(starts.start_state(spec_jax, 0, jnp.float32(t), jnp.float32(0.37), jnp)[0])
     np.testing.assert_allclose(q_jax, q, atol=1e-6)
     np.testing.assert_array_equal(v, ref_v)
     np.testing.assert_array_equal(q[:7], ref_q[:7])
@@ -477,7 +477,7 @@ def test_reset_noise_turns_every_joint_within_its_bound_alike_on_numpy_and_jax(c
     assert hinge.max() <= noise + 1e-6 and hinge.max() > 0.5 * noise
     turn = np.array([quat.angle_between(a, b, np) for a, b in zip(q[layout.q_quat[1:]], ref_q[layout.q_quat[1:]])])
     assert turn.max() <= np.sqrt(3) * noise + 1e-5 and turn.min() > 0.01
-    assert np.abs(step.start_state(spec_np, 0, t, np.float32(0.61), np)[0] - q).max() > 0.05
+    assert np.abs(starts.start_state(spec_np, 0, t, np.float32(0.61), np)[0] - q).max() > 0.05
 
 
 def test_reset_velocity_range_scales_the_start_velocities_by_one_factor_alike_on_numpy_and_jax(character):
@@ -485,7 +485,7 @@ def test_reset_velocity_range_scales_the_start_velocities_by_one_factor_alike_on
     drawn from the event seed (the same on numpy and JAX), the pose untouched; other seeds draw
     other factors; evaluation drops it."""
     from mjxmimic.core.config import evaluation_config
-    from mjxmimic.envs import step
+    from mjxmimic.envs import starts, step
     from mjxmimic.motion.clip import load_clip_source
 
     clip, t = load_clip_source("slow_walk", character), np.float32(0.4)
@@ -493,11 +493,11 @@ def test_reset_velocity_range_scales_the_start_velocities_by_one_factor_alike_on
     spec_np = step.build(slowed, character, [clip], np)[1]
     spec_jax = step.build(slowed, character, [clip], jnp)[1]
     plain = step.build(make_config("cpu"), character, [clip], np)[1]
-    ref_q, ref_v = step.start_state(plain, 0, t, np.float32(0.37), np)
+    ref_q, ref_v = starts.start_state(plain, 0, t, np.float32(0.37), np)
     factors = []
     for seed in (0.37, 0.61, 0.05, 0.93):
-        q, v = step.start_state(spec_np, 0, t, np.float32(seed), np)
-        v_jax = np.asarray(step.start_state(spec_jax, 0, jnp.float32(t), jnp.float32(seed), jnp)[1])
+        q, v = starts.start_state(spec_np, 0, t, np.float32(seed), np)
+        v_jax = np.asarray(starts.start_state(spec_jax, 0, jnp.float32(t), jnp.float32(seed), jnp)[1])
         np.testing.assert_array_equal(q, ref_q)
         np.testing.assert_allclose(v_jax, v, rtol=1e-6, atol=1e-7)
         factor = v[np.abs(ref_v).argmax()] / ref_v[np.abs(ref_v).argmax()]

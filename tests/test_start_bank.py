@@ -9,6 +9,7 @@ from mjxmimic.core import quat
 from mjxmimic.core.config import evaluation_config, make_config
 from mjxmimic.core.errors import UserError
 from mjxmimic.envs import start_bank
+from mjxmimic.envs import starts
 from mjxmimic.envs import step
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.motion.clip import load_clip_source
@@ -67,9 +68,9 @@ def test_a_share_of_resets_starts_from_the_bank_alike_on_numpy_and_jax(character
     spec_jax = spec_jax._replace(start_bank=start_bank.build(config, character, scene, [clip], None, jnp))
     rsi_t, used = np.float32(0.1), []
     for seed in np.linspace(0.0, 1.0, 40, endpoint=False, dtype=np.float32):
-        rsi_q, rsi_v = step.start_state(spec_np, 0, rsi_t, seed, np)
-        c, t, q_np, v_np = step.from_bank(spec_np, 0, rsi_t, rsi_q, rsi_v, seed, np)
-        c_j, t_j, q_j, _ = step.from_bank(spec_jax, 0, jnp.float32(rsi_t), jnp.asarray(rsi_q), jnp.asarray(rsi_v),
+        rsi_q, rsi_v = starts.start_state(spec_np, 0, rsi_t, seed, np)
+        c, t, q_np, v_np = starts.from_bank(spec_np, 0, rsi_t, rsi_q, rsi_v, seed, np)
+        c_j, t_j, q_j, _ = starts.from_bank(spec_jax, 0, jnp.float32(rsi_t), jnp.asarray(rsi_q), jnp.asarray(rsi_v),
                                           jnp.float32(seed), jnp)
         assert int(c_j) == int(c) and float(t_j) == pytest.approx(float(t)) and np.allclose(q_j, q_np, atol=1e-6)
         from_bank = float(t) != float(rsi_t)

@@ -266,10 +266,10 @@ def test_mjx_and_mujoco_c_carry_and_throw_the_ball_alike(character, pitch, throw
 
 
 def test_every_episode_starts_before_the_release(throw_env):
-    from mjxmimic.envs import step as step_lib
+    from mjxmimic.envs import starts
 
     release = throw_env.config.task.release_s
-    assert float(step_lib.start_time_range(throw_env.spec, 0, np)) == pytest.approx(release)
+    assert float(starts.start_time_range(throw_env.spec, 0, np)) == pytest.approx(release)
     assert float(throw_env.eval_start_limits[0]) == pytest.approx(release)
     assert 0.9 * release < throw_env.start_times(64, 0).max() < release
 

@@ -20,6 +20,7 @@ from mjxmimic.core.character import Character
 from mjxmimic.core import terrain as terrain_lib
 from mjxmimic.core.config import Config
 from mjxmimic.envs import skill_switch
+from mjxmimic.envs import starts
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
@@ -60,9 +61,9 @@ class CpuEnv:
         self.data = self.physics.data
         self.control_dt = self.spec.control_dt
         self.max_steps = self.spec.max_steps
-        self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
+        self.max_eval_horizon = starts.max_eval_horizon(self.spec)
         self.clip_durations = self.spec.lib.duration
-        self.eval_start_limits = step_lib.eval_start_limits(self.spec, np)
+        self.eval_start_limits = starts.eval_start_limits(self.spec, np)
         self.clip_duration = float(self.spec.lib.duration[0])
         self.terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.motion = step_lib.Motion(clip=0, time=np.float32(0.0), steps=0, root_offset=np.zeros(2), event_seed=0.0,
@@ -103,7 +104,7 @@ class CpuEnv:
     def reset_at(self, t: float, event_seed: float = 0.0, clip: int = 0) -> np.ndarray:
         """The reference state at time t of clip number `clip` (RSI); returns the observation.
         `event_seed` in [0, 1) varies the episode's events and goals."""
-        qpos, qvel = step_lib.start_state(self.spec, clip, np.float32(t), np.float32(event_seed), np)
+        qpos, qvel = starts.start_state(self.spec, clip, np.float32(t), np.float32(event_seed), np)
         return self.set_state(qpos, qvel, t, event_seed=event_seed, clip=clip)
 
     def switch(self, clip: int) -> np.ndarray:
@@ -156,11 +157,11 @@ class CpuEnv:
                     truncated=timeout, clip_end=clip_end, metrics=metrics)
 
     def eval_horizon(self, t: float, clip: int = 0) -> int:
-        return int(step_lib.eval_horizon(self.spec, clip, np.float32(t), np))
+        return int(starts.eval_horizon(self.spec, clip, np.float32(t), np))
 
     def start_times(self, n: int, seed: int, clip: int = 0) -> np.ndarray:
         """n start times ~ U[0, clip duration) from a seeded numpy generator (the interval that
-        MJX evaluation draws from, step.eval_start_limits; its own times come from JAX's generator,
+        MJX evaluation draws from, starts.eval_start_limits; its own times come from JAX's generator,
         see export)."""
         duration = float(self.eval_start_limits[clip])
         return np.random.default_rng(seed).uniform(0.0, duration, size=n).astype(np.float32)

@@ -17,6 +17,7 @@ from brax.envs.base import Env, State
 from mjxmimic.core.character import Character, load_character, resolve_xml
 from mjxmimic.core.compat import patch_all
 from mjxmimic.core.config import Config, push_curriculum
+from mjxmimic.envs import starts
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics import randomise
@@ -54,12 +55,12 @@ class ImitationEnv(Env):
                                   constraints_per_world=config.physics.constraints_per_world)
         self.control_dt = self.spec.control_dt
         self.max_steps = self.spec.max_steps
-        self.max_eval_horizon = step_lib.max_eval_horizon(self.spec)
+        self.max_eval_horizon = starts.max_eval_horizon(self.spec)
         self.train_terminations = termination.training_list(env.pose_termination_m, env.early_termination,
                                                              config.terrain.kind != "none")
         self.eval_terminations = termination.evaluation_list(env.early_termination, config.terrain.kind != "none")
         self.clip_durations = self.spec.lib.duration
-        self.eval_start_limits = step_lib.eval_start_limits(self.spec, jnp)
+        self.eval_start_limits = starts.eval_start_limits(self.spec, jnp)
         self.clip_duration = float(self.spec.lib.duration[0])
 
     # Brax Env interface -------------------------------------------------------------------
@@ -81,7 +82,7 @@ class ImitationEnv(Env):
         clip = motion_lib.draw_clip(self.spec.lib, jax.random.uniform(k_clip), jnp)
         if not self.config.env.rsi:
             return clip, jnp.zeros((), jnp.float32)
-        t = jax.random.uniform(k_time, (), maxval=1.0) * step_lib.start_time_range(self.spec, clip, jnp)
+        t = jax.random.uniform(k_time, (), maxval=1.0) * starts.start_time_range(self.spec, clip, jnp)
         return clip, t
 
     def reset(self, rng: jax.Array) -> State:
@@ -148,7 +149,7 @@ class ImitationEnv(Env):
 
     def eval_horizon(self, t: Any, clip: Any = 0) -> Any:
         """Steps of the NR horizon from start time t (EVALUATION.md)."""
-        return step_lib.eval_horizon(self.spec, clip, jnp.asarray(t), jnp)
+        return starts.eval_horizon(self.spec, clip, jnp.asarray(t), jnp)
 
 
 def load_env_inputs(config: Config, run_dir: Any = None) -> tuple[Character, list[Any], list[float] | None]:

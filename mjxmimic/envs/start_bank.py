@@ -7,7 +7,7 @@ nearest by the composite gate's own rule (`mjxmimic.envs.composite`), so that an
 from such states learns to go on from where the gate will enter it; then turned about the
 vertical and moved so that its root's heading and floor position are the reference's there
 (`goals.align_reference`, with the state as the one turned): the imitation reward then grades it against that frame, as it grades an RSI start. A reset that draws
-it (`mjxmimic.envs.step.from_bank`) starts the clip at that time.
+it (`mjxmimic.envs.starts.from_bank`) starts the clip at that time.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from mjxmimic.core.config import Config
 from mjxmimic.core.errors import UserError
 from mjxmimic.core.scene import Scene
 from mjxmimic.envs import entry as entry_lib
+from mjxmimic.envs import starts
 from mjxmimic.envs import step as step_lib
 from mjxmimic.motion import library as motion_lib
 from mjxmimic.physics.cpu import CpuPhysics
@@ -63,7 +64,7 @@ def build(config: Config, character: Character, scene: Scene, clips: list[Any], 
     physics = CpuPhysics(scene, spec.layout, 1, config.env.torque_limit)
     grid, _ = entry_lib.pose_grid(spec.lib, spec.control_dt, physics.kinematics)
     times, valid, feats = grid.times, grid.valid, grid.features
-    limits = np.array([step_lib.start_time_range(spec, c, np) for c in range(len(clips))])
+    limits = np.array([starts.start_time_range(spec, c, np) for c in range(len(clips))])
     valid = valid & (times < limits[:, None])  # as RSI: at least one control step of the clip left
     out_q, out_v = np.empty_like(qpos), np.empty_like(qvel)
     clip_of, time_of = np.zeros(len(qpos), np.int32), np.zeros(len(qpos), np.float32)

@@ -41,7 +41,7 @@ def _training_eval(run_dir: Path, config: config_lib.Config, clips: list[Any], c
         return None
     episodes = int(ev.get("episodes", config.run.eval_episodes))
     seed = int(ev.get("seed", config.run.seed + 1))
-    from mjxmimic.envs.step import start_limit
+    from mjxmimic.envs.starts import start_limit
 
     duration = float(start_limit(config, clip.duration))
     starts = ev.get("start_times")

@@ -38,7 +38,7 @@ DIRECTION = (1.0, GOLDEN)
 FORCE = (11.0, PLASTIC)
 DELAY = (13.0, PLASTIC * PLASTIC)
 # whether an episode is pushed at all (env.push_episode_share): one draw of the event seed's stream
-# (randomise.uniform), independent of the pushes' sequences; just before envs.step's START_BANK_DRAWS
+# (randomise.uniform), independent of the pushes' sequences; just before envs.starts' START_BANK_DRAWS
 PUSHED_DRAW = (1 << 20) - 4
 
 
