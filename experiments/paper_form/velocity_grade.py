@@ -14,9 +14,11 @@ preset does).
 
 import json
 import sys
+from typing import Any
 
 import numpy as np
 
+from mjxmimic.envs.cpu_env import CpuEnv
 from mjxmimic.motion import library as L
 from mjxmimic.task import reward as R
 from terms import policy_env
@@ -32,21 +34,18 @@ def main() -> None:
     libs = {mode: L.build_motion_lib(env.clips, env.character, velocity=mode) for mode in MODES}
     nr = {mode: [] for mode in MODES}
     for t0 in played["start_times"]:
-        obs = env.reset_at(float(t0))
-        horizon = env.eval_horizon(float(t0))
         sums = dict.fromkeys(MODES, 0.0)
-        for _ in range(horizon):
-            step = env.step(policy(obs))
+
+        def grade(env: CpuEnv, _step: Any) -> None:  # after every step that the NR counts
             sim = env.physics.kinematics(env.data.qpos.copy(), env.data.qvel.copy())
             ref_q, _ = env.reference(env.time)  # the graded pose; only the velocities differ by mode
             for mode in MODES:
                 ref_v = L.sample(libs[mode], env.motion.clip, np.float32(env.time), np)[1]
                 sums[mode] += float(R.reward(terms, env.spec.layout, sim, env.physics.kinematics(ref_q, ref_v), np)[0])
-            if step.failed or step.clip_end:
-                break
-            obs = step.obs
+
+        episode = env.episode(policy, float(t0), on_step=grade)
         for mode in MODES:
-            nr[mode].append(sums[mode] / horizon)
+            nr[mode].append(sums[mode] / episode["horizon"])
     check = float(np.max(np.abs(np.array(nr[own]) - np.array(played["per_episode_nr"]))))
     if check > 1e-6:
         sys.exit(f"velocity_grade.py: the NR under the policy's own setting ({own}) differs from "
