@@ -45,14 +45,17 @@ def row(run: Path) -> str:
     best = max(evals, key=lambda r: r["eval/nr_paper"])
     reached = next((r for r in evals if paper is not None and r["eval/nr_paper"] >= paper), None)
     at = reached or best
-    verdict = "yes" if reached else "no"
+    verdict = "-" if paper is None else "yes" if reached else "no"
     last = evals[-1]
     # eval/nr is the training form's NR: the released form's only where the run trained on it
     released = "-" if config.get("reward", {}).get("kind") == "paper" else f"{best['eval/nr']:.3f}"
     name = clip if clip == run.name else f"{run.name} ({clip})"
     cpu = "-"
     if (run / PLAY).is_file():
-        played = json.loads((run / PLAY).read_text())["nr_paper"]
+        try:
+            played = json.loads((run / PLAY).read_text())["nr_paper"]
+        except (ValueError, KeyError, TypeError):
+            sys.exit(f"table.py: {run / PLAY}: not the JSON of `mjxmimic play --json` (empty, or still being written?)")
         cpu = f"{played:.3f} ({played / best['eval/nr_paper']:.3f})"
     return (f"| {name} | {paper if paper is not None else '-'} | {best['eval/nr_paper']:.3f} | {released} "
             f"| {verdict} | {at['step'] / 1e6:.0f} M | {at['wall']:.0f} s | {last['eval/nr_paper']:.3f} "
@@ -71,11 +74,11 @@ def main(paths: list[str]) -> None:
     for run in runs:
         if not is_run(run):
             sys.exit(f"table.py: {run}: not a run record (no metrics.jsonl or eval.json there)")
+    rows = [row(run) for run in runs]  # before any output: a bad record stops with one line only
     print("| clip | paper NR (Table 2) | best NR, paper form | released form | reached paper | samples | "
           "seconds | final NR, paper form | final samples | final fall rate | MuJoCo C (ratio) |")
     print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---|")
-    for run in runs:
-        print(row(run))
+    print("\n".join(rows))
     for run in runs:
         if (run / "strip.png").is_file():
             print(f"\n{run.name} (the policy in grey, its reference as an orange ghost):\n\n![{run.name}]({run.name}/strip.png)")
