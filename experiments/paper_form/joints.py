@@ -2,7 +2,8 @@
 over the joints, no weights): per joint (the root's orientation first), the mean squared angle
 and angular-velocity error over the steps the character is up on MuJoCo C (as `terms.py` plays
 them), and the same velocity error of the reference's own pose (the derivative of the
-interpolated pose against the clip's velocities, which no policy can remove), largest first.
+interpolated pose against the clip's velocities, which no policy can remove), the largest
+velocity error first.
 
     python experiments/paper_form/joints.py POLICY.npz [EPISODES] > joints.json
 """
@@ -15,7 +16,7 @@ import numpy as np
 
 from mjxmimic.motion import library as L
 from mjxmimic.task import reward as R
-from reference_velocity import H
+from reference_velocity import pose_rate
 from terms import policy_env, steps_up
 
 
@@ -40,9 +41,7 @@ def main() -> None:
         # reference_velocity.py takes it
         lib, clip, t = env.spec.lib, env.motion.clip, env.time
         v = L.sample(lib, clip, np.float32(t), np)[1]
-        before, after = (L.sample(lib, clip, np.float32(t + d), np)[0] for d in (-H, H))
-        rate = L._segment_velocity(layout, before[None], after[None], np.array([2 * H]))[0]
-        own.append(_per_joint_velocity(layout, np.asarray(rate), np.asarray(v)))
+        own.append(_per_joint_velocity(layout, np.asarray(pose_rate(lib, layout, clip, t)), np.asarray(v)))
     pose, velocity, own = (np.mean(a, axis=0) for a in (pose, velocity, own))
     order = np.argsort(-velocity)
     print(json.dumps({

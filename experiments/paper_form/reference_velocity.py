@@ -41,6 +41,13 @@ def _env(args: list[str]) -> tuple[CpuEnv, dict, list[str]]:
     return env, {"policy": args[0]}, args[1:]
 
 
+def pose_rate(lib: L.MotionLib, layout, clip: int, t: float) -> np.ndarray:
+    """The reference pose's rate of change at time t of clip number `clip` (a qvel), by central
+    differences over 2 H."""
+    before, after = (L.sample(lib, clip, np.float32(t + d), np)[0] for d in (-H, H))
+    return L._segment_velocity(layout, before[None], after[None], np.array([2 * H]))[0]
+
+
 def main() -> None:
     env, source, rest = _env(sys.argv[1:])
     samples = int(rest[0]) if rest else 600
@@ -52,12 +59,10 @@ def main() -> None:
         errors = {"forward": [], "central": []}
         for t in np.linspace(2 * H, float(lib.duration[c]) - 2 * H, samples):
             q, v = L.sample(lib, c, np.float32(t), np)
-            before, _ = L.sample(lib, c, np.float32(t - H), np)
-            after, _ = L.sample(lib, c, np.float32(t + H), np)
-            pose_rate = kin(q, L._segment_velocity(layout, before[None], after[None], np.array([2 * H]))[0])
+            rate = kin(q, pose_rate(lib, layout, c, float(t)))
             v_central = L.sample(central, c, np.float32(t), np)[1]
             for name, vel in (("forward", v), ("central", v_central)):
-                errors[name].append(float(velocity.error(layout, kin(q, vel), pose_rate, np)))
+                errors[name].append(float(velocity.error(layout, kin(q, vel), rate, np)))
         out["clips"][clip.name] = {
             name: {"e_vel": round(float(np.mean(e)), 2), "term": round(term, 3), "bound": round(0.9 + 0.1 * term, 3)}
             for name, e in errors.items() for term in [float(np.mean(np.exp(-velocity.scale * np.array(e))))]}
