@@ -20,12 +20,6 @@ from reference_velocity import pose_rate
 from terms import policy_env, steps_up
 
 
-def _per_joint_velocity(layout, sim_qvel: np.ndarray, ref_qvel: np.ndarray) -> np.ndarray:
-    ang = np.sum((sim_qvel[layout.v_ang] - ref_qvel[layout.v_ang]) ** 2, axis=-1)
-    hv = layout.v_scalar[3:]
-    return np.concatenate([ang, (sim_qvel[hv] - ref_qvel[hv]) ** 2])
-
-
 def main() -> None:
     episodes = int(sys.argv[2]) if len(sys.argv) > 2 else 8
     env, policy = policy_env(sys.argv[1])
@@ -36,12 +30,13 @@ def main() -> None:
     for _, sim, ref in steps_up(env, policy, episodes):
         quat_angle, hinge_angle = R.joint_angles(layout, sim, ref, np)
         pose.append(np.concatenate([quat_angle, hinge_angle]) ** 2)
-        velocity.append(_per_joint_velocity(layout, np.asarray(sim.qvel), np.asarray(ref.qvel)))
+        velocity.append(np.concatenate(R.joint_velocity_errors(layout, sim, ref, np)))
         # the reference pose's own rate of change against the velocities the reward grades with, as
         # reference_velocity.py takes it
         lib, clip, t = env.spec.lib, env.motion.clip, env.time
         v = L.sample(lib, clip, np.float32(t), np)[1]
-        own.append(_per_joint_velocity(layout, np.asarray(pose_rate(lib, layout, clip, t)), np.asarray(v)))
+        own.append(np.concatenate(R.joint_velocity_errors(layout, ref._replace(qvel=pose_rate(lib, layout, clip, t)),
+                                                          ref._replace(qvel=v), np)))
     pose, velocity, own = (np.mean(a, axis=0) for a in (pose, velocity, own))
     order = np.argsort(-velocity)
     print(json.dumps({

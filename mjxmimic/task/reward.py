@@ -49,10 +49,16 @@ def _pose_sum(layout: Layout, sim: Kin, ref: Kin, xp: Any, quat_weight: Any, hin
     return xp.sum(quat_weight * quat_angle**2) + xp.sum(hinge_weight * hinge_angle**2)
 
 
-def _velocity_sum(layout: Layout, sim: Kin, ref: Kin, xp: Any, quat_weight: Any, hinge_weight: Any) -> Any:
+def joint_velocity_errors(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> tuple[Any, Any]:
+    """Per-joint squared angular-velocity error between sim and reference (quaternion groups, hinges)."""
     ang = xp.sum((sim.qvel[layout.v_ang] - ref.qvel[layout.v_ang]) ** 2, axis=-1)
     hv = layout.v_scalar[3:]
-    return xp.sum(quat_weight * ang) + xp.sum(hinge_weight * (sim.qvel[hv] - ref.qvel[hv]) ** 2)
+    return ang, (sim.qvel[hv] - ref.qvel[hv]) ** 2
+
+
+def _velocity_sum(layout: Layout, sim: Kin, ref: Kin, xp: Any, quat_weight: Any, hinge_weight: Any) -> Any:
+    ang, hinge = joint_velocity_errors(layout, sim, ref, xp)
+    return xp.sum(quat_weight * ang) + xp.sum(hinge_weight * hinge)
 
 
 def pose_error(layout: Layout, sim: Kin, ref: Kin, xp: Any) -> Any:
