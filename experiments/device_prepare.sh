@@ -26,13 +26,16 @@ rm .whl/mujoco_studio-*.whl .whl/pyopengl-*.whl
 mv .whl/*.whl "$tmp/whl/" && rmdir .whl
 tar cf "$tmp/wheels.tar" -C "$tmp" whl
 
-# the tracked tree as a tar, and 1 MiB to spare, leave the room for one part
-tree_kib=$(( $(git ls-files -z | tar cf - --null -T - | wc -c) / 1024 ))
-part_kib=$(( 64 * 1024 - tree_kib - 1024 ))
-[ "$part_kib" -gt 1024 ] || { echo "device_prepare.sh: the tracked tree ($tree_kib KiB) leaves no room for a part" >&2; exit 1; }
+# the tracked files' sizes (what the 64 MiB counts: on 2026-11-30 a tree of 59,990 KiB of files,
+# 62.3 MB as a tar, went with a part of 4,732 KiB), and 800 KiB to spare, leave the room for one part
+tree_kib=$(git ls-files -z | xargs -0 stat -c %s | awk '{s += $1} END {print int(s / 1024) + 1}')
+part_kib=$(( 64 * 1024 - tree_kib - 800 ))
+names=(0 1 2 3 4 5 6 7 8 9 a b c d e f g h i j k l m n o p q r s t u v w x y z)
+tar_kib=$(( $(stat -c %s "$tmp/wheels.tar") / 1024 ))
+[ $(( part_kib * ${#names[@]} )) -gt "$tar_kib" ] || {
+  echo "device_prepare.sh: the tracked files ($tree_kib KiB) leave too little room for the wheels ($tar_kib KiB) in ${#names[@]} parts" >&2; exit 1; }
 rm -rf .wp?
 split -b "${part_kib}K" -d -a 2 "$tmp/wheels.tar" "$tmp/part."
-names=(0 1 2 3 4 5 6 7 8 9 a b c d e f g h i j k l m n o p q r s t u v w x y z)
 i=0
 for part in "$tmp"/part.*; do
   mkdir ".wp${names[$i]}" && mv "$part" ".wp${names[$i]}/"
