@@ -2,12 +2,11 @@
 # Prepares, in a new checkout, the ignored folders that a device block carries (experiments/README.md,
 # "device time"): .clips/ (a copy of ../shared/deepmimic/motions) and the wheels the GPU machine
 # lacks (gpu-warp.sh's warp-lang, gpu-wheels.sh's others but the render-only mujoco-studio and
-# PyOpenGL), unpacked into one xz tar split in parts, one part a folder (.wp0, .wp1, ... .wp9, .wpa, ...), each
-# small enough to go in one transfer call beside the tracked tree (a call carries at most 64 MiB:
-# on 2026-11-29 a tree of 55.05 MB as a tar with a part of 12.40 MB was refused, with one of 10.96 MB
-# taken). Folders already there are made again. Prints the parts' count and the tar's md5, to
-# check on the machine after the last part, where `cat /tmp/wp/part.* | xz -d | tar xf - -C /tmp/site`
-# installs them.
+# PyOpenGL), unpacked into one xz tar split in parts, one part a folder (.wp0, .wp1, ... .wp9,
+# .wpa, ...), each small enough to go in one transfer call beside the tracked tree (a call carries
+# at most 64 MiB). Folders already there are made again. Prints the parts' count and the tar's md5,
+# to check on the machine after the last part, where
+# `cat /tmp/wp/part.* | xz -d | tar xf - -C /tmp/site` installs them.
 #   bash experiments/device_prepare.sh
 set -euo pipefail
 cd "$(git rev-parse --show-toplevel)"
