@@ -28,10 +28,10 @@ def main() -> None:
     for _, sim, ref in steps_up(env, policy, episodes):
         b = min(int(env.time % env.clip_duration / env.clip_duration * bins), bins - 1)
         heights[b].append((float(ref.qpos[2]), float(sim.qpos[2] - ref.qpos[2])))
-        step = {t.name: float(np.exp(-t.scale * t.error(env.spec.layout, sim, ref, np))) for t in terms}
-        rewards[b].append(sum(t.weight * step[t.name] for t in terms))  # the reward, from its terms
-        for name, value in step.items():
-            values[b][name].append(value)
+        total, metrics = R.reward(terms, env.spec.layout, sim, ref, np)
+        rewards[b].append(float(total))
+        for t in terms:
+            values[b][t.name].append(float(metrics[f"reward/{t.name}"]))
     shortfall = sum(len(r) - sum(r) for r in rewards)
     rows = [{"phase": f"{b / bins:.2f}-{(b + 1) / bins:.2f}", "steps": len(rewards[b]),
              "reward": round(float(np.mean(rewards[b])), 4),
