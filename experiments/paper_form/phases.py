@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 
+from mjxmimic.motion import library as L
 from mjxmimic.task import reward as R
 from terms import policy_env, steps_up
 
@@ -26,7 +27,7 @@ def main() -> None:
     values = [{t.name: [] for t in terms} for _ in range(bins)]
     heights = [[] for _ in range(bins)]  # (reference root height, the character's minus it)
     for _, sim, ref in steps_up(env, policy, episodes):
-        b = min(int(env.time % env.clip_duration / env.clip_duration * bins), bins - 1)
+        b = min(int(L.phase(env.spec.lib, env.motion.clip, env.time) * bins), bins - 1)
         heights[b].append((float(ref.qpos[2]), float(sim.qpos[2] - ref.qpos[2])))
         total, metrics = R.reward(terms, env.spec.layout, sim, ref, np)
         rewards[b].append(float(total))
