@@ -6,7 +6,7 @@
 # call to call on the warm machine; issue 13, plan item 2: clips that pass Table 2 at 100 M,
 # trained with the preset's default of 200 M since the forty-seventh session and nothing else,
 # seed 0; first the four whose suite entries predate the KL stop:
-# - lane 0: dance_b (the thinnest pass, 0.010 over Table 2), then the spin;
+# - lane 0: dance_b (the thinnest of the seven, 0.010 over Table 2), then the spin;
 # - lane 1: the punch, then the cartwheel.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
