@@ -10,13 +10,12 @@
 # two lanes that fit a block: the getups, then the kick and the walk.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
-getups="@0 getupK2b|--clip getup_faceup --preset gpu;grade_getupK2b;getupfdK2b|--clip getup_facedown --preset gpu;grade_getupfdK2b"
+lanes=("@0 getupK2b|--clip getup_faceup --preset gpu;grade_getupK2b;getupfdK2b|--clip getup_facedown --preset gpu;grade_getupfdK2b")
 if [ "$(nvidia-smi -L | wc -l)" -ge 4 ]; then
-  GRADE_PUSH=0 PACK=none bash experiments/device_train.sh "$1" "$getups" \
-    "@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;crawlK2b|--clip crawl --preset gpu;grade_crawlK2b" \
-    "@2 walkK2|--clip walk --preset gpu;grade_walkK2" \
-    "@3 runK2|--clip run --preset gpu;grade_runK2"
+  lanes+=("@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;crawlK2b|--clip crawl --preset gpu;grade_crawlK2b"
+          "@2 walkK2|--clip walk --preset gpu;grade_walkK2"
+          "@3 runK2|--clip run --preset gpu;grade_runK2")
 else
-  GRADE_PUSH=0 PACK=none bash experiments/device_train.sh "$1" "$getups" \
-    "@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;walkK2|--clip walk --preset gpu;grade_walkK2"
+  lanes+=("@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;walkK2|--clip walk --preset gpu;grade_walkK2")
 fi
+GRADE_PUSH=0 PACK=none bash experiments/device_train.sh "$1" "${lanes[@]}"
