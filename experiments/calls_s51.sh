@@ -7,7 +7,7 @@
 # push tests) as it ends, the runs resumed from call to call on the warm machine. On a four-GPU
 # host: the getups, the kick and the crawl (100 M runs on today's preset), and the walk and the
 # run (their entries predate the reference_root term and the KL stop). On a two-GPU host, the
-# two lanes that fit a block: the getups, then the kick and the walk.
+# two lanes that fit a block: the getups, then the kick and the walk; on one GPU, the getups.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 lanes=("@0 getupK2b|--clip getup_faceup --preset gpu;grade_getupK2b;getupfdK2b|--clip getup_facedown --preset gpu;grade_getupfdK2b")
@@ -15,7 +15,7 @@ if [ "$(nvidia-smi -L | wc -l)" -ge 4 ]; then
   lanes+=("@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;crawlK2b|--clip crawl --preset gpu;grade_crawlK2b"
           "@2 walkK2|--clip walk --preset gpu;grade_walkK2"
           "@3 runK2|--clip run --preset gpu;grade_runK2")
-else
+elif [ "$(nvidia-smi -L | wc -l)" -ge 2 ]; then
   lanes+=("@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;walkK2|--clip walk --preset gpu;grade_walkK2")
 fi
 GRADE_PUSH=0 PACK=none bash experiments/device_train.sh "$1" "${lanes[@]}"
