@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The next device block (issue 13, plan item 2), after the transfer and install of
+# The device block of 2026-12-01 (forty-ninth session; issue 13, plan item 2) on a lent one-H200
+# host, which took the one-GPU branch below, after the transfer and install of
 # experiments/README.md ("device time"):
 #   bash experiments/calls_s51.sh SECONDS        # calls A, B and C, the same command
 # The suite's clips whose entries still predate the preset's 200 M default, trained with
@@ -10,12 +11,13 @@
 # two lanes that fit a block: the getups, then the kick and the walk; on one GPU, the getups.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
+gpus=$(nvidia-smi -L | wc -l)
 lanes=("@0 getupK2b|--clip getup_faceup --preset gpu;grade_getupK2b;getupfdK2b|--clip getup_facedown --preset gpu;grade_getupfdK2b")
-if [ "$(nvidia-smi -L | wc -l)" -ge 4 ]; then
+if [ "$gpus" -ge 4 ]; then
   lanes+=("@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;crawlK2b|--clip crawl --preset gpu;grade_crawlK2b"
           "@2 walkK2|--clip walk --preset gpu;grade_walkK2"
           "@3 runK2|--clip run --preset gpu;grade_runK2")
-elif [ "$(nvidia-smi -L | wc -l)" -ge 2 ]; then
+elif [ "$gpus" -ge 2 ]; then
   lanes+=("@1 kickK2b|--clip kick --preset gpu;grade_kickK2b;walkK2|--clip walk --preset gpu;grade_walkK2")
 fi
 GRADE_PUSH=0 PACK=none bash experiments/device_train.sh "$1" "${lanes[@]}"
