@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The next device block (issue 13, plan item 2), after the transfer and install of
+# The device block of 2026-12-01 (fiftieth session; issue 13, plan item 2) on a lent one-H200
+# host, which took the one-GPU branch below, after the transfer and install of
 # experiments/README.md ("device time"):
 #   bash experiments/calls_s52.sh SECONDS        # calls A, B and C, the same command
 # The suite's clips whose entries still predate the preset as it stands, trained with
@@ -11,11 +12,14 @@
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 gpus=$(nvidia-smi -L | wc -l)
+kick="kickK2b|--clip kick --preset gpu;grade_kickK2b"
+crawl="crawlK2b|--clip crawl --preset gpu;grade_crawlK2b"
+walk="walkK2|--clip walk --preset gpu;grade_walkK2"
+run="runK2|--clip run --preset gpu;grade_runK2"
 if [ "$gpus" -ge 4 ]; then
-  lanes=("@0 kickK2b|--clip kick --preset gpu;grade_kickK2b" "@1 crawlK2b|--clip crawl --preset gpu;grade_crawlK2b"
-         "@2 walkK2|--clip walk --preset gpu;grade_walkK2" "@3 runK2|--clip run --preset gpu;grade_runK2")
+  lanes=("@0 $kick" "@1 $crawl" "@2 $walk" "@3 $run")
 else
-  lanes=("@0 kickK2b|--clip kick --preset gpu;grade_kickK2b;walkK2|--clip walk --preset gpu;grade_walkK2")
-  [ "$gpus" -ge 2 ] && lanes+=("@1 crawlK2b|--clip crawl --preset gpu;grade_crawlK2b;runK2|--clip run --preset gpu;grade_runK2")
+  lanes=("@0 $kick;$walk")
+  [ "$gpus" -ge 2 ] && lanes+=("@1 $crawl;$run")
 fi
 GRADE_PUSH=0 PACK=none bash experiments/device_train.sh "$1" "${lanes[@]}"
