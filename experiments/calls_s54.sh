@@ -6,8 +6,8 @@
 # judge re-measures a sample of clips: `mjxmimic train --clip CLIP --preset gpu --set
 # run.seed=1` and nothing else, each graded on MuJoCo C (no push tests) as it ends, the runs
 # resumed from call to call on the warm machine. The backflip (the pass nearest Table 2 of those)
-# and the spin (5 % of its final evaluation fallen); on four GPUs the cartwheel and the punch
-# beside them; one run a GPU on two; the backflip and then the spin on one.
+# and the spin (3 of 64 episodes fallen in its last evaluations); on four GPUs the cartwheel and
+# the punch beside them; one run a GPU on two; the backflip and then the spin on one.
 # Carried (ignored folders): .clips/ (DeepMimic's motions), in every call.
 set -u
 gpus=$(nvidia-smi -L | wc -l)
