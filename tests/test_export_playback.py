@@ -349,11 +349,11 @@ def test_mjx_start_times_are_those_of_mjxmimic_evaluate():
     sys.path.insert(0, str(Path(__file__).parent))
     from standin_env import StandInEnv
 
-    from mjxmimic.runs.evaluate import _rollout
+    from mjxmimic.runs.evaluate import rollout
 
     standin = StandInEnv(clip_duration=1.7)
     policy = lambda obs, key: jnp.zeros(obs.shape[:-1] + (standin.action_size,))
-    acc = jax.jit(lambda k: _rollout(standin, policy, k, 8))(jax.random.PRNGKey(11))
+    acc = jax.jit(lambda k: rollout(standin, policy, k, 8))(jax.random.PRNGKey(11))
     np.testing.assert_array_equal(np.asarray(acc["start_time"], np.float32),
                                   export.mjx_eval_start_times(11, 8, 1.7))
 

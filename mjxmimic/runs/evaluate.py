@@ -32,10 +32,14 @@ def start_times(key: jax.Array, num_episodes: int, clip_duration: float) -> jax.
     return jax.random.uniform(k_time, (num_episodes,), minval=0.0, maxval=clip_duration)
 
 
-def _rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: int = 0) -> dict:
-    """Per-episode sums (traceable; jit it). policy_fn(obs, key) -> action, batched over episodes."""
+def rollout(env, policy_fn: Callable, key: jax.Array, num_episodes: int, clip: int = 0,
+            t0: jax.Array | None = None) -> dict:
+    """Per-episode sums (traceable; jit it). policy_fn(obs, key) -> action, batched over episodes.
+    The episodes start at the evaluation's draw from `key`, or at `t0` (num_episodes clip times)
+    where given, to look at particular starts."""
     _, k_reset, k_policy = jax.random.split(key, 3)
-    t0 = start_times(key, num_episodes, env.eval_start_limits[clip])
+    if t0 is None:
+        t0 = start_times(key, num_episodes, env.eval_start_limits[clip])
     state = jax.vmap(lambda k, t: env.reset_at(k, t, clip))(jax.random.split(k_reset, num_episodes), t0)
     horizon = jax.vmap(lambda t: env.eval_horizon(t, clip))(t0)
     transition = jax.vmap(lambda s, a: env.transition(s, a, evaluation=True))
@@ -139,7 +143,7 @@ def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episode
     repeated evaluations of changing parameters use `Evaluator`)."""
     n = int(episodes or config.run.eval_episodes)
     start = time.time()
-    run = jax.jit(lambda key, clip: _rollout(env, policy_fn, key, n, clip))
+    run = jax.jit(lambda key, clip: rollout(env, policy_fn, key, n, clip))
     key, task = jax.random.PRNGKey(seed), task_of(env)
     result = per_clip(env, lambda c: summarize(jax.device_get(run(key, c)), env.control_dt, task,
                                                config.terrain.length_m))
@@ -164,7 +168,7 @@ class Evaluator:
         self.num_episodes = int(episodes or config.run.eval_episodes)
         self.stochastic = config.run.eval_stochastic
         self._run = jax.jit(
-            lambda params, key, deterministic, clip: _rollout(env, make_policy(params, deterministic), key,
+            lambda params, key, deterministic, clip: rollout(env, make_policy(params, deterministic), key,
                                                               self.num_episodes, clip), static_argnums=2)
         self._compiled: dict[bool, Callable] = {}
 
