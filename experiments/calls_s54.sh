@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The next device block (issue 13, plan item 2), after the transfer and install of
+# The device block of 2026-12-01 (fifty-second session; issue 13, plan item 2) on a lent one-H200
+# host, which took the one-GPU branch below, after the transfer and install of
 # experiments/README.md ("device time"):
 #   bash experiments/calls_s54.sh SECONDS        # calls A, B and C, the same command
 # Second seeds, on the preset as it stands, of suite passes that have only seed 0 there, as the
