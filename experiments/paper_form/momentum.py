@@ -18,8 +18,9 @@ from terms import policy_env
 def body_momentum(model: mujoco.MjModel, scratch: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> dict:
     scratch.qpos[:], scratch.qvel[:] = qpos, qvel
     mujoco.mj_forward(model, scratch)
-    mujoco.mj_subtreeVel(model, scratch)
-    return {"com_z": round(float(scratch.subtree_com[1][2]), 3), "com_vz": round(float(scratch.subtree_linvel[1][2]), 2),
+    mujoco.mj_subtreeVel(model, scratch)  # body 1, the character's root: its subtree is the body
+    return {"com_z": round(float(scratch.subtree_com[1][2]), 3),
+            "com_vz": round(float(scratch.subtree_linvel[1][2]), 2),
             "ang_momentum": [round(float(x), 1) for x in scratch.subtree_angmom[1]]}
 
 
@@ -29,7 +30,8 @@ def main() -> None:
     scratch = mujoco.MjData(env.model)
     obs = env.reset_at(float(np.float32(t0)))
     for _ in range(steps):
-        row = {"t": round(env.time, 3), "policy": body_momentum(env.model, scratch, env.data.qpos, env.data.qvel),
+        row = {"t": round(env.time, 3),
+               "policy": body_momentum(env.model, scratch, env.data.qpos, env.data.qvel),
                "reference": body_momentum(env.model, scratch, *env.reference(env.time))}
         print(json.dumps(row))
         step = env.step(policy(obs))
