@@ -14,14 +14,16 @@ import mujoco
 import numpy as np
 from terms import policy_env
 
+from mjxmimic.core.kinematics import ROOT_BODY
+
 
 def body_momentum(model: mujoco.MjModel, scratch: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> dict:
     scratch.qpos[:], scratch.qvel[:] = qpos, qvel
     mujoco.mj_forward(model, scratch)
-    mujoco.mj_subtreeVel(model, scratch)  # body 1, the character's root: its subtree is the body
-    return {"com_z": round(float(scratch.subtree_com[1][2]), 3),
-            "com_vz": round(float(scratch.subtree_linvel[1][2]), 2),
-            "ang_momentum": [round(float(x), 1) for x in scratch.subtree_angmom[1]]}
+    mujoco.mj_subtreeVel(model, scratch)
+    return {"com_z": round(float(scratch.subtree_com[ROOT_BODY][2]), 3),
+            "com_vz": round(float(scratch.subtree_linvel[ROOT_BODY][2]), 2),
+            "ang_momentum": [round(float(x), 1) for x in scratch.subtree_angmom[ROOT_BODY]]}
 
 
 def main() -> None:

@@ -169,7 +169,7 @@ class Evaluator:
         self.stochastic = config.run.eval_stochastic
         self._run = jax.jit(
             lambda params, key, deterministic, clip: rollout(env, make_policy(params, deterministic), key,
-                                                              self.num_episodes, clip), static_argnums=2)
+                                                             self.num_episodes, clip), static_argnums=2)
         self._compiled: dict[bool, Callable] = {}
 
     def lower(self, params: Any) -> dict[bool, jax.stages.Lowered]:
