@@ -80,6 +80,7 @@ def add_info_arguments(parser: argparse.ArgumentParser) -> None:
 def clip_summary(clip, character) -> dict:
     """The numbers `clips info` shows, as a JSON-ready dict."""
     from mjxmimic.motion.clip import lowest_points
+    from mjxmimic.motion.flight import flights
 
     feet = character.body_sets.get("feet")
     lowest = lowest_points(character, clip.qpos)
@@ -101,6 +102,8 @@ def clip_summary(clip, character) -> dict:
                           round(float(clip.root_pos[:, 2].max()), 4)],
         "lowest_point_m": [round(float(lowest.min()), 4), round(float(lowest.max()), 4)],
         "max_quat_norm_error": round(clip.max_quat_norm_error, 4),
+        "gravity_mps2": round(float(-character.model.opt.gravity[2]), 4),
+        "flights": [f.as_dict() for f in flights(character, clip)],
     }
     if feet:
         soles = lowest_points(character, clip.qpos, feet)
@@ -109,6 +112,8 @@ def clip_summary(clip, character) -> dict:
 
 
 def _print_summary(s: dict) -> None:
+    from mjxmimic.motion.flight import Flight, describe
+
     rows = [
         ("clip", s["name"]),
         ("path", s["path"]),
@@ -124,6 +129,8 @@ def _print_summary(s: dict) -> None:
     ]
     if "lowest_sole_m" in s:
         rows.append(("lowest sole", "{:.3f} .. {:.3f} m".format(*s["lowest_sole_m"])))
+    for flight in s["flights"]:
+        rows.append(("airborne", describe(Flight(**flight), s["gravity_mps2"])))
     if s["max_quat_norm_error"] > 1e-6:
         rows.append(("quaternions", f"normalised on load (file off by up to {s['max_quat_norm_error']:.3f})"))
     rows.append(("verdict", "valid"))
@@ -381,7 +388,7 @@ def run_retarget(args: argparse.Namespace) -> int:
 
 SUBCOMMANDS: dict[str, Subcommand] = {
     "list": Subcommand("list the clips that can be given by name", add_list_arguments, run_list),
-    "info": Subcommand("frames, duration, loop, rate, travel and validity of a clip",
+    "info": Subcommand("frames, duration, loop, rate, travel, validity and free fall in the air of a clip",
                        add_info_arguments, run_info),
     "render": Subcommand("headless video (mp4) of a clip's reference motion", add_render_arguments, run_render),
     "import": Subcommand("a motion capture file (BVH) -> a clip for a character", add_import_arguments, run_import),
