@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The next device block (issue 13, plan item 2), after the transfer and install of
+# The device block of 2026-12-01 (fifty-third session; issue 13, plan item 2) on a lent one-H200
+# host, which took the one-GPU branch below, after the transfer and install of
 # experiments/README.md ("device time"):
 #   bash experiments/calls_s55.sh SECONDS        # calls A, B and C, the same command
 # Whether the backflip tracks well enough with more samples to pass Table 2 whatever the
