@@ -77,3 +77,11 @@ def test_clips_info_reports_flights(character, deepmimic_dir, capsys):
     out = capsys.readouterr().out
     [line] = [row for row in out.splitlines() if row.startswith("airborne")]
     assert "NOT ballistic" in line and "angular momentum" in line
+
+
+def test_made_clips_report_their_airborne_stretches(character):
+    """`clips retarget` and `clips import` carry the check in their reports."""
+    from mjxmimic.motion.retarget import retarget
+
+    [stretch] = retarget(thrown(character, vertical_acceleration=-5.0), character, character, None).report["airborne"]
+    assert not stretch["ballistic"] and not stretch["falls_freely"] and stretch["keeps_momentum"]

@@ -112,7 +112,7 @@ def clip_summary(clip, character) -> dict:
 
 
 def _print_summary(s: dict) -> None:
-    from mjxmimic.motion.flight import Flight, describe
+    from mjxmimic.motion.flight import describe
 
     rows = [
         ("clip", s["name"]),
@@ -130,7 +130,7 @@ def _print_summary(s: dict) -> None:
     if "lowest_sole_m" in s:
         rows.append(("lowest sole", "{:.3f} .. {:.3f} m".format(*s["lowest_sole_m"])))
     for flight in s["flights"]:
-        rows.append(("airborne", describe(Flight(**flight), s["gravity_mps2"])))
+        rows.append(("airborne", describe(flight, s["gravity_mps2"])))
     if s["max_quat_norm_error"] > 1e-6:
         rows.append(("quaternions", f"normalised on load (file off by up to {s['max_quat_norm_error']:.3f})"))
     rows.append(("verdict", "valid"))
@@ -334,6 +334,14 @@ def _print_quality(report: dict, about: str) -> None:
     print(f"  foot skating {'-' if skating is None else f'{skating:.3f} m/s'} (planted feet), penetration "
           f"{report['penetration_max_m'] * 100:.1f} cm, {report['frames_below_ground']} frames below ground, "
           f"joint-limit hits {report['joint_limit_hits']} ({report['joint_limit_hit_rate'] * 100:.1f} % of hinge samples)")
+    stretches = report["airborne"]
+    odd = [f for f in stretches if not f["ballistic"]]
+    seconds = sum(f["end_s"] - f["start_s"] for f in odd)
+    if not stretches:
+        print("  never airborne (always within 2 cm of the ground)")
+        return
+    print(f"  {len(stretches)} airborne stretches (nothing within 2 cm of the ground), {len(odd)} of them held up or "
+          f"turned with nothing touching ({seconds:.2f} s; `mjxmimic clips info` on the clip lists them)")
 
 
 # -------------------------------------------------------------------------------------- retarget

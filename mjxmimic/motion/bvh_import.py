@@ -28,6 +28,7 @@ from mjxmimic.core.errors import UserError, read_json
 from mjxmimic.motion import quality
 from mjxmimic.motion.bvh import Bvh
 from mjxmimic.motion.clip import Clip
+from mjxmimic.motion.flight import flights
 
 SKELETONS = Path(__file__).resolve().parent / "skeletons"
 AXIS_NAMES = {"x": 0, "y": 1, "z": 2}
@@ -373,4 +374,5 @@ def _report(character: Character, mapping: Mapping, clip: Clip, bvh: Bvh, src_po
         "end_effector_error_mean_m": float(np.mean(list(errors.values()))) if errors else None,
         "foot_skating_m_per_s": skating,
         **quality.ground_report(lowest),
+        "airborne": [f.as_dict() for f in flights(character, clip)],
     }

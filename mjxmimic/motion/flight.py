@@ -36,11 +36,18 @@ class Flight:
     momentum_start: float  # |angular momentum about the centre of mass|, kg m^2/s
     momentum_end: float
     momentum_change: float  # largest |L(t) - L(start)| in the stretch
-    ballistic: bool
+    falls_freely: bool  # within PATH_TOLERANCE of a free-fall path
+    keeps_momentum: bool
+
+    @property
+    def ballistic(self) -> bool:
+        return self.falls_freely and self.keeps_momentum
 
     def as_dict(self) -> dict:
-        return {k: (round(v, 3) if isinstance(v, float) else [round(x, 3) for x in v] if isinstance(v, tuple) else v)
-                for k, v in asdict(self).items()}
+        """JSON-ready, rounded to mm and thousandths."""
+        out = {k: (round(v, 3) if isinstance(v, float) else [round(x, 3) for x in v] if isinstance(v, tuple) else v)
+               for k, v in asdict(self).items()}
+        return out | {"ballistic": self.ballistic}
 
 
 def _centre_of_mass_and_momentum(character: Character, qpos: np.ndarray,
@@ -89,24 +96,25 @@ def flights(character: Character, clip: Clip) -> list[Flight]:
         change = np.linalg.norm(momentum[span] - momentum[first], axis=1).max()
         size = np.linalg.norm(momentum[span], axis=1).max()
         path_error = _free_fall_error(t, com[span], gravity)
-        falls_freely = path_error <= PATH_TOLERANCE
-        keeps_momentum = change <= max(MOMENTUM_TOLERANCE, MOMENTUM_SHARE * size)
         out.append(Flight(
             start_s=float(times[first]), end_s=float(times[last]), frames=last - first + 1,
             lowest_m=float(lowest[span].min()), acceleration=tuple(float(a) for a in acceleration),
             path_error_m=path_error,
             momentum_start=float(np.linalg.norm(momentum[first])),
             momentum_end=float(np.linalg.norm(momentum[last])),
-            momentum_change=float(change), ballistic=bool(falls_freely and keeps_momentum)))
+            momentum_change=float(change), falls_freely=bool(path_error <= PATH_TOLERANCE),
+            keeps_momentum=bool(change <= max(MOMENTUM_TOLERANCE, MOMENTUM_SHARE * size))))
     return out
 
 
-def describe(flight: Flight, gravity: float = 9.81) -> str:
-    """One line for `clips info`."""
-    ax, ay, az = flight.acceleration
-    verdict = "ballistic" if flight.ballistic else "NOT ballistic: no simulated body can follow it, and starts in it may not be recoverable"
-    return (f"{flight.start_s:.3f} .. {flight.end_s:.3f} s ({flight.frames} frames, {flight.lowest_m:.3f} m up): "
+def describe(flight: dict, gravity: float) -> str:
+    """One line for `clips info` from a Flight's as_dict()."""
+    ax, ay, az = flight["acceleration"]
+    failed = [what for what, ok in (("held up", flight["falls_freely"]), ("turned", flight["keeps_momentum"])) if not ok]
+    verdict = ("ballistic" if not failed else
+               f"NOT ballistic, {' and '.join(failed)} with nothing touching: a simulated body must leave the reference here")
+    return (f"{flight['start_s']:.3f} .. {flight['end_s']:.3f} s ({flight['frames']} frames, {flight['lowest_m']:.3f} m up): "
             f"centre of mass accelerates {az:+.1f} m/s^2 vertically (free fall -{gravity:.2f}), "
-            f"{np.hypot(ax, ay):.1f} horizontally, {100 * flight.path_error_m:.1f} cm off the nearest free-fall path; "
-            f"angular momentum {flight.momentum_start:.1f} -> "
-            f"{flight.momentum_end:.1f} kg m^2/s (changes by up to {flight.momentum_change:.1f}): {verdict}")
+            f"{np.hypot(ax, ay):.1f} horizontally, {100 * flight['path_error_m']:.1f} cm off the nearest free-fall path; "
+            f"angular momentum {flight['momentum_start']:.1f} -> {flight['momentum_end']:.1f} kg m^2/s "
+            f"(changes by up to {flight['momentum_change']:.1f}): {verdict}")

@@ -32,6 +32,7 @@ from mjxmimic.core.character import Character
 from mjxmimic.core.errors import UserError, read_json
 from mjxmimic.motion import quality
 from mjxmimic.motion.clip import Clip, lowest_points
+from mjxmimic.motion.flight import flights
 
 RETARGETS = Path(__file__).resolve().parent / "retargets"
 
@@ -158,6 +159,7 @@ def retarget(clip: Clip, source: Character, target: Character, mapping: Retarget
         "source_foot_skating_m_per_s": quality.foot_skating(source, clip.qpos, clip.fps),
         **quality.ground_report(lowest), "ground_shift_m": shift,
         "joint_limit_hits": hits, "joint_limit_hit_rate": hits / max(samples, 1),
+        "airborne": [f.as_dict() for f in flights(target, out)],
     }
     return Retargeted(out, report)
 
