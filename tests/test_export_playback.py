@@ -27,7 +27,7 @@ from mjxmimic.envs.mjx_env import make_env
 from mjxmimic.learn.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
 from mjxmimic.motion import library as motion
 from mjxmimic.portable import policy_file as policy_format
-from mjxmimic.portable.playback import evaluate
+from mjxmimic.portable.playback import evaluate, fall_windows
 from mjxmimic.portable.policy_numpy import NumpyPolicy
 from mjxmimic.runs import checkpoint, export, folder
 
@@ -423,6 +423,25 @@ def test_play_push_test_without_jax(policy_file):
     assert alone["push_sideways_tried"] == out["push_sideways_tried"]
     bad = _run_play(policy_file, "--push", "--workers", "0")
     assert bad.returncode == 2 and "--workers 0: must be at least 1" in bad.stderr, bad.stderr
+
+
+def test_play_on_a_grid_of_starts(policy_file):
+    """--grid: a start every SECONDS over the clip, whose falls come grouped in runs of starts."""
+    out = json.loads(_run_play(policy_file, "--grid", "0.2", "--json").stdout)
+    duration = policy_format.read(policy_file).clip().duration
+    np.testing.assert_allclose(out["start_times"], np.arange(0.0, duration, 0.2), atol=1e-6)
+    assert out["starts"] == "a grid over the clip, every 0.2 s" and out["episodes"] == len(out["start_times"])
+    assert sum(n for _, _, n in out["fall_windows"]) == round(out["fall_rate"] * out["episodes"])
+    bad = _run_play(policy_file, "--grid", "0.2", "--episodes", "3")
+    assert bad.returncode == 2 and "--grid sets the start times itself" in bad.stderr, bad.stderr
+    assert _run_play(policy_file, "--grid", "0").returncode == 2
+
+
+def test_fall_windows_are_runs_of_falling_starts_in_clip_order():
+    starts = [0.3, 0.1, 0.0, 0.2, 0.5, 0.4, 0.6]
+    fell = [True, True, False, True, True, False, False]
+    assert fall_windows(starts, fell) == [[0.1, 0.3, 3], [0.5, 0.5, 1]]
+    assert fall_windows(starts, [False] * 7) == []
 
 
 def test_play_text_output_and_run_folder(run, policy_file, capsys):

@@ -1,6 +1,6 @@
 """`mjxmimic play POLICY`: an exported policy on MuJoCo's CPU simulator, numpy only (no JAX).
 
-    mjxmimic play POLICY [--clip NAME|PATH] [--episodes N] [--seed S] [--json] [--viewer]
+    mjxmimic play POLICY [--clip NAME|PATH] [--episodes N] [--seed S | --grid SECONDS] [--json] [--viewer]
 
 POLICY is a file from `mjxmimic export` (.npz, or .onnx with the onnx package) or a run folder
 holding policy.npz. Runs the sim-to-sim NR protocol of EVALUATION.md (mjxmimic.portable.playback): N
@@ -8,7 +8,8 @@ episodes (default 16) with the deterministic policy, each from the reference sta
 time, with the training's control step (PD substepping, fall rules) on mujoco.mj_step, its
 contact solve run to convergence (--solver-iterations N limits it; core.config.playback_config).
 Start times are the MJX evaluation's own (carried in the file) unless --seed, --clip or more episodes
-than it ran ask for a fresh seeded draw. Reports NR, fall rate, survival, pose and end-effector
+than it ran ask for a fresh seeded draw, or --grid for one every SECONDS over the clip (the NR
+apart from the draw; the starts that fall, in runs, show where the policy cannot be started). Reports NR, fall rate, survival, pose and end-effector
 errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
 --skill-sequence and --switch-trials play a dataset policy's skill selector (mjxmimic.portable.skills);
@@ -43,6 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=int, default=None, help=f"episodes (default {DEFAULT_EPISODES})")
     parser.add_argument("--seed", type=arg_types.seed, default=None,
                         help="draw start times from this seed instead of using the MJX evaluation's")
+    parser.add_argument("--grid", type=arg_types.at_least(1e-3, float), default=None, metavar="SECONDS",
+                        help="start times every SECONDS over the clip instead of a random draw: the NR over "
+                             "the whole clip, apart from the draw, and where in it the policy falls")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--viewer", action="store_true", help="watch in MuJoCo's viewer (needs a display)")
     parser.add_argument("--solver-iterations", type=int, default=None, metavar="N",
@@ -94,8 +98,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                 "for getups to train from (env.start_states)")
 
 
-def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool):
-    """(start times, label): the MJX evaluation's where they apply, else a seeded draw."""
+def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, clip_overridden: bool,
+                 grid: float | None = None):
+    """(start times, label): a grid if asked for, the MJX evaluation's where they apply, else a
+    seeded draw."""
+    if grid is not None:
+        import numpy as np
+
+        starts = np.arange(0.0, float(env.eval_start_limits[0]), grid)
+        return starts.tolist(), f"a grid over the clip, every {grid:g} s"
     ev = manifest.get("training", {}).get("eval") or {}
     stored = ev.get("start_times") or []
     n = DEFAULT_EPISODES if episodes is None else episodes
@@ -103,6 +114,11 @@ def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, cl
         return stored[:n], f"the MJX evaluation's (seed {ev.get('seed')}, first {n} of {len(stored)})"
     seed = 0 if seed is None else seed
     return env.start_times(n, seed).tolist(), f"seeded draw (numpy, seed {seed})"
+
+
+def _windows_text(windows: list[list[float]]) -> str:
+    """'0.590 .. 0.660 s (8), 1.200 s' from playback.fall_windows."""
+    return ", ".join(f"{a:.3f} s" if n == 1 else f"{a:.3f} .. {b:.3f} s ({n:g})" for a, b, n in windows)
 
 
 class _RealTime:
@@ -272,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
                         "run without --viewer, or make a video with `mjxmimic render`")
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
+    if args.grid is not None and (args.episodes is not None or args.seed is not None or args.push or args.viewer):
+        raise UserError("--grid sets the start times itself; leave out --episodes, --seed, --push and --viewer")
     if args.solver_iterations is not None and args.solver_iterations < 1:
         raise UserError(f"--solver-iterations {args.solver_iterations}: must be at least 1")
 
@@ -322,7 +340,7 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"{flag} needs a policy trained on a dataset of clips; this one has one clip")
     env = CpuEnv(playback_config(pf.config(), args.solver_iterations), character, clip)
     policy = pf.policy()
-    starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None)
+    starts, label = _start_times(env, pf.manifest, args.episodes, args.seed, args.clip is not None, args.grid)
 
     if args.push:
         return _push(args, pf, env, policy, clip)
@@ -357,6 +375,7 @@ def run(args: argparse.Namespace) -> int:
          else f"{mjx_nr:.4f}  ({out['mjx_episodes']} episodes)"),
         ("ratio CPU / MJX", "n/a" if out["ratio"] is None else f"{out['ratio']:.3f}"),
         ("fall rate", f"{out['fall_rate']:.3f}"),
+        ("fell from", _windows_text(out["fall_windows"]) or "-"),
         ("mean survival (s)", f"{out['survival_s']:.2f}"),
         ("pose error (rad)", f"{out['pose_error_rad']:.4f}"),
         ("end-effector error (m)", f"{out['end_effector_error_m']:.4f}"),
