@@ -205,6 +205,10 @@ def test_play_grades_every_clip(skilled_file, capsys):
     assert all(0 <= r["nr"] <= 1 and r["episodes"] == 2 and r["mjx_nr"] is None for r in rows.values())
     assert cli.main(["play", str(skilled_file), "--clip", "squat", "--episodes", "1", "--json"]) == 0
     assert set(json.loads(capsys.readouterr().out)["clips"]) == {"squat"}
+    assert cli.main(["play", str(skilled_file), "--clip", "squat", "--grid", "1.0", "--json"]) == 0
+    [row] = json.loads(capsys.readouterr().out)["clips"].values()
+    assert row["starts"] == "a grid over the clip, every 1 s" and row["episodes"] == 2  # the squat lasts 2 s
+    assert sum(n for _, _, n in row["fall_windows"]) == round(row["fall_rate"] * 2)
 
 
 def test_skill_sequence(skilled_file, capsys):

@@ -335,11 +335,11 @@ def _print_quality(report: dict, about: str) -> None:
           f"{report['penetration_max_m'] * 100:.1f} cm, {report['frames_below_ground']} frames below ground, "
           f"joint-limit hits {report['joint_limit_hits']} ({report['joint_limit_hit_rate'] * 100:.1f} % of hinge samples)")
     stretches = report["airborne"]
-    odd = [f for f in stretches if not f["ballistic"]]
-    seconds = sum(f["end_s"] - f["start_s"] for f in odd)
     if not stretches:
         print("  never airborne (always within 2 cm of the ground)")
         return
+    odd = [f for f in stretches if not f["ballistic"]]
+    seconds = sum(f["end_s"] - f["start_s"] for f in odd)
     print(f"  {len(stretches)} airborne stretches (nothing within 2 cm of the ground), {len(odd)} of them held up or "
           f"turned with nothing touching ({seconds:.2f} s; `mjxmimic clips info` on the clip lists them)")
 

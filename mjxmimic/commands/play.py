@@ -9,8 +9,8 @@ time, with the training's control step (PD substepping, fall rules) on mujoco.mj
 contact solve run to convergence (--solver-iterations N limits it; core.config.playback_config).
 Start times are the MJX evaluation's own (carried in the file) unless --seed, --clip or more episodes
 than it ran ask for a fresh seeded draw, or --grid for one every SECONDS over the clip (the NR
-apart from the draw; the starts that fall, in runs, show where the policy cannot be started). Reports NR, fall rate, survival, pose and end-effector
-errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
+apart from the draw). Reports NR, fall rate, the runs of start times that fell, survival, pose and
+end-effector errors, and the ratio CPU NR / MJX NR (the training-side NR recorded at export).
 --viewer shows the episodes in MuJoCo's viewer, in real time, where a display exists.
 --skill-sequence and --switch-trials play a dataset policy's skill selector (mjxmimic.portable.skills);
 --switch-routes TRIALS.json sends the switches that those trials saw fall through a third skill.
@@ -103,10 +103,7 @@ def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, cl
     """(start times, label): a grid if asked for, the MJX evaluation's where they apply, else a
     seeded draw."""
     if grid is not None:
-        import numpy as np
-
-        starts = np.arange(0.0, float(env.eval_start_limits[0]), grid)
-        return starts.tolist(), f"a grid over the clip, every {grid:g} s"
+        return _grid(env, grid)
     ev = manifest.get("training", {}).get("eval") or {}
     stored = ev.get("start_times") or []
     n = DEFAULT_EPISODES if episodes is None else episodes
@@ -114,6 +111,13 @@ def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, cl
         return stored[:n], f"the MJX evaluation's (seed {ev.get('seed')}, first {n} of {len(stored)})"
     seed = 0 if seed is None else seed
     return env.start_times(n, seed).tolist(), f"seeded draw (numpy, seed {seed})"
+
+
+def _grid(env, step: float, clip: int = 0) -> tuple[list[float], str]:
+    """(start times, label): one every `step` seconds over the interval the evaluation draws from."""
+    import numpy as np
+
+    return np.arange(0.0, float(env.eval_start_limits[clip]), step).tolist(), f"a grid over the clip, every {step:g} s"
 
 
 def _windows_text(windows: list[list[float]]) -> str:
@@ -169,7 +173,9 @@ def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
         if only is not None and index != only:
             continue
         stored = (ev.get(clip.name) or {}).get("start_times") or []
-        if args.seed is None and n <= len(stored):
+        if args.grid is not None:
+            starts, label = _grid(env, args.grid, index)
+        elif args.seed is None and n <= len(stored):
             starts, label = stored[:n], f"the MJX evaluation's (first {n} of {len(stored)})"
         else:
             seed = 0 if args.seed is None else args.seed
@@ -179,6 +185,7 @@ def _play_clips(args: argparse.Namespace, pf, env, only: int | None) -> int:
         rows[clip.name] = {"nr": result["nr"], "nr_paper": result["nr_paper"],
                            "nr_paper_discounted": result["nr_paper_discounted"], "fall_rate": result["fall_rate"],
                            "survival_s": result["survival_s"], "episodes": result["episodes"], "starts": label,
+                           "fall_windows": result["fall_windows"],
                            "mjx_nr": mjx_nr, "ratio": result["nr"] / mjx_nr if mjx_nr else None}
     if args.json:
         print(json.dumps({"policy": str(pf.path), "simulator": env.physics.simulator, "clips": rows}))
@@ -288,8 +295,10 @@ def run(args: argparse.Namespace) -> int:
                         "run without --viewer, or make a video with `mjxmimic render`")
     if args.episodes is not None and args.episodes < 1:
         raise UserError(f"--episodes {args.episodes}: must be at least 1")
-    if args.grid is not None and (args.episodes is not None or args.seed is not None or args.push or args.viewer):
-        raise UserError("--grid sets the start times itself; leave out --episodes, --seed, --push and --viewer")
+    if args.grid is not None and (args.episodes is not None or args.seed is not None or args.push or args.viewer
+                                  or args.skill_sequence is not None or args.switch_trials is not None):
+        raise UserError("--grid sets the start times itself; leave out --episodes, --seed, --push, --viewer, "
+                        "--skill-sequence and --switch-trials")
     if args.solver_iterations is not None and args.solver_iterations < 1:
         raise UserError(f"--solver-iterations {args.solver_iterations}: must be at least 1")
 
@@ -301,6 +310,8 @@ def run(args: argparse.Namespace) -> int:
     if composite.is_composite(args.policy):
         from mjxmimic.commands import composite_report
 
+        if args.grid is not None:
+            raise UserError(f"--grid is for single policies; {args.policy} is a composite (use --episodes)")
         return composite_report.play(args, composite.read(args.policy))
     for flag, given in (("--knockdowns", args.knockdowns), ("--save-states", args.save_states),
                         ("--push-once", args.push_once), ("--seconds", args.seconds), ("--start", args.start),

@@ -1,4 +1,5 @@
-"""Whether a clip's airborne stretches obey free fall, which `clips info` reports.
+"""Whether a clip's airborne stretches obey free fall, which `clips info` reports (and the
+reports of `clips import` and `clips retarget`).
 
 Off the ground, nothing but gravity acts on a body: its centre of mass falls at g and its angular
 momentum about the centre of mass stays what it was at take-off. A clip that turns or lifts itself
