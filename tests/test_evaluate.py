@@ -8,6 +8,7 @@ import pytest
 from mjxmimic import cli
 from mjxmimic.core.config import make_config
 from mjxmimic.runs.evaluate import Evaluator, evaluate
+from mjxmimic.task.nr import fall_windows
 from standin_env import StandInEnv
 
 CONFIG = make_config("cpu", {"run.eval_episodes": 8})
@@ -101,6 +102,24 @@ def test_nr_is_mean_of_per_episode_return_over_horizon():
     assert out["nr_paper_discounted"] == pytest.approx(float(np.mean(discounted)), abs=1e-5)
 
 
+def test_a_grid_of_starts_covers_the_clip_and_names_where_falls_start():
+    env = StandInEnv(clip_duration=1.0)
+    tracked = evaluate(env, perfect_policy(env), CONFIG, grid=0.25)
+    assert tracked["episodes"] == 4 and tracked["grid_s"] == 0.25  # starts 0, 0.25, 0.5, 0.75
+    assert tracked["nr"] == pytest.approx(1.0, abs=1e-4) and tracked["fall_windows"] == []
+    fallen = evaluate(env, zero_policy, CONFIG, grid=0.25)
+    assert fallen["fall_windows"] == [[0.0, 0.75, 4]]  # every start falls: one run of them
+    drawn = evaluate(env, zero_policy, CONFIG, seed=0)
+    assert sum(n for _, _, n in drawn["fall_windows"]) == round(drawn["fall_rate"] * drawn["episodes"])
+
+
+def test_fall_windows_are_runs_of_falling_starts_in_clip_order():
+    starts = [0.3, 0.1, 0.0, 0.2, 0.5, 0.4, 0.6]
+    fell = [True, True, False, True, True, False, False]
+    assert fall_windows(starts, fell) == [[0.1, 0.3, 3], [0.5, 0.5, 1]]
+    assert fall_windows(starts, [False] * 7) == []
+
+
 def test_evaluator_matches_evaluate_and_compiles_once():
     from mjxmimic.learn.ppo import export_params, make_trainer
 
@@ -134,6 +153,13 @@ def test_stochastic_evaluation_grades_the_training_policy_on_the_same_starts():
         assert result[f"stochastic_{key}"] == pytest.approx(stochastic[key], rel=1e-5, abs=1e-7)
     # std 1 moves the stand-in visibly: the two policies are graded apart
     assert result["stochastic_nr"] != pytest.approx(result["nr"], rel=0.05)
+
+
+def test_eval_cli_grid_refusals(tmp_path, capsys):
+    assert cli.main(["eval", str(tmp_path), "--grid", "0.1", "--episodes", "4"]) == 2
+    assert "--grid sets the episodes itself" in capsys.readouterr().err
+    assert cli.main(["eval", str(tmp_path), "--grid", "0.1", "--push"]) == 2
+    assert "--grid is for the NR" in capsys.readouterr().err
 
 
 def test_eval_cli_missing_run_folder(tmp_path, capsys):

@@ -27,7 +27,7 @@ from mjxmimic.envs.mjx_env import make_env
 from mjxmimic.learn.ppo import TrainState, export_params, make_networks, make_policy_fn, make_trainer
 from mjxmimic.motion import library as motion
 from mjxmimic.portable import policy_file as policy_format
-from mjxmimic.portable.playback import evaluate, fall_windows
+from mjxmimic.portable.playback import evaluate
 from mjxmimic.portable.policy_numpy import NumpyPolicy
 from mjxmimic.runs import checkpoint, export, folder
 
@@ -435,13 +435,6 @@ def test_play_on_a_grid_of_starts(policy_file):
     bad = _run_play(policy_file, "--grid", "0.2", "--episodes", "3")
     assert bad.returncode == 2 and "--grid sets the start times itself" in bad.stderr, bad.stderr
     assert _run_play(policy_file, "--grid", "0").returncode == 2
-
-
-def test_fall_windows_are_runs_of_falling_starts_in_clip_order():
-    starts = [0.3, 0.1, 0.0, 0.2, 0.5, 0.4, 0.6]
-    fell = [True, True, False, True, True, False, False]
-    assert fall_windows(starts, fell) == [[0.1, 0.3, 3], [0.5, 0.5, 1]]
-    assert fall_windows(starts, [False] * 7) == []
 
 
 def test_play_text_output_and_run_folder(run, policy_file, capsys):

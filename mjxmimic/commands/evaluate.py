@@ -27,6 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     character_option.add_option(parser)
     parser.add_argument("--episodes", type=int, help="evaluation episodes (default: run.eval_episodes)")
     parser.add_argument("--seed", type=arg_types.seed, help="seed of the start times (default: run.seed + 1, as in training)")
+    parser.add_argument("--grid", type=arg_types.at_least(1e-3, float), default=None, metavar="SECONDS",
+                        help="an episode from a start every SECONDS over the clip instead of a random draw: the NR "
+                             "apart from the draw, and where in the clip the policy falls")
     parser.add_argument("--checkpoint", metavar="best|latest|N",
                         help="which checkpoint: the best evaluation's (default; the latest for a run "
                              "that kept none), the latest, or N samples")
@@ -58,6 +61,7 @@ _ROWS = [
     ("task_return", "task return (mean r_task per step)", "{:.4f}"),
     ("speed_ratio", "heading: speed along the goal / commanded", "{:.3f}"),
     ("fall_rate", "fall rate", "{:.3f}"),
+    ("fall_windows", "fell from (start times)", "{}"),
     ("survival_s", "mean survival (s)", "{:.2f}"),
     ("pose_error_rad", "pose error (rad)", "{:.4f}"),
     ("end_effector_error_m", "end-effector error (m)", "{:.4f}"),
@@ -66,6 +70,11 @@ _ROWS = [
     ("train_seconds", "training wall-clock (s)", "{:.0f}"),
     ("time_to_skill_s", "time to skill (s)", "{:.0f}"),
 ]
+
+
+def fall_windows_text(windows: list[list[float]]) -> str:
+    """'0.590 .. 0.660 s (8), 1.200 s' from mjxmimic.task.nr.fall_windows."""
+    return ", ".join(f"{a:.3f} s" if n == 1 else f"{a:.3f} .. {b:.3f} s ({n:g})" for a, b, n in windows)
 
 
 def _run_push(args: argparse.Namespace, policy_file: bool) -> int:
@@ -115,14 +124,15 @@ def _run_composite(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     character_option.check(args.character, args.run_dir)
+    from mjxmimic.core.errors import UserError
     from mjxmimic.portable.composite import is_composite
 
+    if args.grid is not None and (args.push or is_composite(args.run_dir)):
+        raise UserError("--grid is for the NR of a run or policy file; leave it out of --push and composites")
     if is_composite(args.run_dir):
         return _run_composite(args)
     policy_file = folder.names_policy_file(args.run_dir)
     if policy_file and args.checkpoint is not None:
-        from mjxmimic.core.errors import UserError
-
         raise UserError(f"--checkpoint is for run folders; {args.run_dir} holds one policy")
     if args.push:
         return _run_push(args, policy_file)
@@ -130,10 +140,11 @@ def run(args: argparse.Namespace) -> int:
 
     say = None if args.json else (lambda text: print(f"mjxmimic eval: {text}", file=sys.stderr, flush=True))
     if policy_file:
-        result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say)
+        result = evaluate_policy_file(args.run_dir, args.episodes, args.seed, progress=say, grid=args.grid)
         title = f"{args.run_dir} ({result['clip']}, {result['simulator']})"
     else:
-        result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint or "best", progress=say)
+        result = evaluate_run(args.run_dir, args.episodes, args.seed, which=args.checkpoint or "best", progress=say,
+                              grid=args.grid)
         title = f"{args.run_dir} ({result['clip']}, checkpoint {result['checkpoint']:,}, {result['simulator']})"
     if args.json:
         print(json.dumps(result, indent=2))
@@ -142,5 +153,9 @@ def run(args: argparse.Namespace) -> int:
     print(title, file=sys.stdout)
     for key, label, fmt in _ROWS:
         if key in result:
-            print(f"  {label:<{width}}  {fmt.format(result[key])}")
+            if key == "fall_windows":
+                value = fall_windows_text(result[key]) or "-"
+            else:
+                value = fmt.format(result[key])
+            print(f"  {label:<{width}}  {value}")
     return 0

@@ -31,6 +31,7 @@ import sys
 import time
 
 from mjxmimic.commands import arg_types, character_option
+from mjxmimic.commands.evaluate import fall_windows_text
 from mjxmimic.runs import folder
 
 DEFAULT_EPISODES = 16
@@ -118,11 +119,6 @@ def _grid(env, step: float, clip: int = 0) -> tuple[list[float], str]:
     import numpy as np
 
     return np.arange(0.0, float(env.eval_start_limits[clip]), step).tolist(), f"a grid over the clip, every {step:g} s"
-
-
-def _windows_text(windows: list[list[float]]) -> str:
-    """'0.590 .. 0.660 s (8), 1.200 s' from playback.fall_windows."""
-    return ", ".join(f"{a:.3f} s" if n == 1 else f"{a:.3f} .. {b:.3f} s ({n:g})" for a, b, n in windows)
 
 
 class _RealTime:
@@ -386,7 +382,7 @@ def run(args: argparse.Namespace) -> int:
          else f"{mjx_nr:.4f}  ({out['mjx_episodes']} episodes)"),
         ("ratio CPU / MJX", "n/a" if out["ratio"] is None else f"{out['ratio']:.3f}"),
         ("fall rate", f"{out['fall_rate']:.3f}"),
-        ("fell from", _windows_text(out["fall_windows"]) or "-"),
+        ("fell from", fall_windows_text(out["fall_windows"]) or "-"),
         ("mean survival (s)", f"{out['survival_s']:.2f}"),
         ("pose error (rad)", f"{out['pose_error_rad']:.4f}"),
         ("end-effector error (m)", f"{out['end_effector_error_m']:.4f}"),

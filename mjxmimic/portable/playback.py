@@ -49,20 +49,6 @@ def evaluate(env: CpuEnv, policy: Callable[[np.ndarray], np.ndarray], starts: An
     start_times = [e["start_time"] for e in episodes]
     out.update(control_steps=steps, eval_seconds=wall, steps_per_s=steps / wall if wall > 0 else None,
                start_times=start_times, per_episode_nr=[e["nr"] for e in episodes],
-               fall_windows=fall_windows(start_times, [bool(e["failed"]) for e in episodes]))
+               fall_windows=nr_rule.fall_windows(start_times, [bool(e["failed"]) for e in episodes]))
     return out
 
-
-def fall_windows(starts: list[float], fell: list[bool]) -> list[list[float]]:
-    """[first, last, count] of each run of start times, in clip-time order, that all fell: where in
-    a clip a policy cannot be started (a take-off no policy can complete, say), apart from the
-    evaluation's draw."""
-    windows: list[list[float]] = []
-    previous_fell = False
-    for t, f in sorted(zip(starts, fell)):
-        if f and previous_fell:
-            windows[-1][1:] = [t, windows[-1][2] + 1]
-        elif f:
-            windows.append([t, t, 1])
-        previous_fell = f
-    return windows

@@ -138,15 +138,31 @@ def per_clip(env, run_clip: Callable[[jax.Array], dict]) -> dict:
 
 
 def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episodes: int | None = None,
-             samples: int | None = None, train_seconds: float | None = None) -> dict:
+             grid: float | None = None, samples: int | None = None, train_seconds: float | None = None) -> dict:
     """NR and friends for a fixed `policy_fn(obs, key) -> action` (compiles on every call; for
-    repeated evaluations of changing parameters use `Evaluator`)."""
+    repeated evaluations of changing parameters use `Evaluator`), with the runs of start times
+    that fell (`fall_windows`). `grid` (seconds): a start every `grid` over each clip instead of
+    the seeded draw of `episodes`."""
     n = int(episodes or config.run.eval_episodes)
     start = time.time()
-    run = jax.jit(lambda key, clip: rollout(env, policy_fn, key, n, clip))
+    drawn = jax.jit(lambda key, clip: rollout(env, policy_fn, key, n, clip))
     key, task = jax.random.PRNGKey(seed), task_of(env)
-    result = per_clip(env, lambda c: summarize(jax.device_get(run(key, c)), env.control_dt, task,
-                                               config.terrain.length_m))
+
+    def run_clip(clip: jax.Array) -> dict:
+        if grid is None:
+            acc = drawn(key, clip)
+        else:
+            t0 = jnp.asarray(np.arange(0.0, float(env.eval_start_limits[int(clip)]), grid), jnp.float32)
+            acc = jax.jit(lambda k: rollout(env, policy_fn, k, len(t0), clip, t0))(key)
+        acc = jax.device_get(acc)
+        out = summarize(acc, env.control_dt, task, config.terrain.length_m)
+        out["fall_windows"] = nr_rule.fall_windows(np.asarray(acc["start_time"]).tolist(),
+                                                   np.asarray(acc["failed"]).tolist())
+        return out
+
+    result = per_clip(env, run_clip)
+    if grid is not None:
+        result["grid_s"] = grid
     return _finish(result, env, time.time() - start, samples, train_seconds)
 
 

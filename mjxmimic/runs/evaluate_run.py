@@ -37,30 +37,40 @@ def load_run_policy(run_dir: Path, env: Any = None, which: str = "latest",
     return config, env, make_policy_fn(networks, params, deterministic=True), meta, step
 
 
-def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env: Any = None,
-                 write: bool = True, which: str = "latest",
-                 progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """NR of one of RUN's checkpoints (the latest by default), in `env` if given (e.g. other
-    physics settings), else in the run's own; seed defaults to run.seed + 1, as in training.
-    `write`: also save it as RUN/eval_<checkpoint>.json (the training's own eval.json stays).
-    `progress(text)` hears what is happening."""
+def _check_starts(episodes: int | None, grid: float | None) -> None:
     if episodes is not None and episodes < 1:
         raise UserError(f"--episodes {episodes}: must be at least 1")
+    if grid is not None and episodes is not None:
+        raise UserError("--grid sets the episodes itself (a start every SECONDS); leave out --episodes")
+
+
+def _episodes_text(episodes: int, grid: float | None) -> str:
+    return f"{episodes} episodes" if grid is None else f"episodes from a start every {grid:g} s"
+
+
+def evaluate_run(run_dir: Path, episodes: int | None = None, seed: int | None = None, env: Any = None,
+                 write: bool = True, which: str = "latest",
+                 progress: Callable[[str], None] | None = None, grid: float | None = None) -> dict[str, Any]:
+    """NR of one of RUN's checkpoints (the latest by default), in `env` if given (e.g. other
+    physics settings), else in the run's own; seed defaults to run.seed + 1, as in training;
+    `grid` (seconds) starts an episode every `grid` over the clip instead of the seeded draw.
+    `write`: also save it as RUN/eval_<checkpoint>.json (eval_<checkpoint>_grid_<grid>.json; the
+    training's own eval.json stays). `progress(text)` hears what is happening."""
+    _check_starts(episodes, grid)
     say = progress or (lambda text: None)
     config, env, policy, meta, step = load_run_policy(run_dir, env, which, progress)
 
     from mjxmimic.runs.evaluate import evaluate
 
-    n = episodes or config.run.eval_episodes
-    say(f"compiling and running {n} episodes")
-    result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed,
-                      episodes=episodes, samples=meta["env_steps"], train_seconds=meta["elapsed_seconds"])
+    say(f"compiling and running {_episodes_text(episodes or config.run.eval_episodes, grid)}")
+    result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed, episodes=episodes,
+                      grid=grid, samples=meta["env_steps"], train_seconds=meta["elapsed_seconds"])
     if meta.get("time_to_skill_s") is not None:
         result["time_to_skill_s"] = meta["time_to_skill_s"]
     result["checkpoint"] = step
     result["clip"] = config.clip.name
     if write:
-        folder.write_json_atomic(folder.eval_path_of(run_dir, step), result)
+        folder.write_json_atomic(folder.eval_path_of(run_dir, step, grid), result)
     return result
 
 
@@ -92,16 +102,16 @@ def load_file_policy(path: Path, progress: Callable[[str], None] | None = None,
 
 
 def evaluate_policy_file(path: Path, episodes: int | None = None, seed: int | None = None,
-                         progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                         progress: Callable[[str], None] | None = None, grid: float | None = None) -> dict[str, Any]:
     """NR of an exported policy file (`mjxmimic export`) on MJX (load_file_policy), with the
-    training's start times by default (seed run.seed + 1)."""
-    if episodes is not None and episodes < 1:
-        raise UserError(f"--episodes {episodes}: must be at least 1")
+    training's start times by default (seed run.seed + 1), or a start every `grid` seconds."""
+    _check_starts(episodes, grid)
     say = progress or (lambda text: None)
     config, env, policy = load_file_policy(path, say)
 
     from mjxmimic.runs.evaluate import evaluate
 
-    say(f"compiling and running {episodes or config.run.eval_episodes} episodes")
-    result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed, episodes=episodes)
+    say(f"compiling and running {_episodes_text(episodes or config.run.eval_episodes, grid)}")
+    result = evaluate(env, policy, config, config.run.seed + 1 if seed is None else seed, episodes=episodes,
+                      grid=grid)
     return {**result, "policy": str(path), "clip": config.clip.name}

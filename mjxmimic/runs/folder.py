@@ -67,9 +67,9 @@ def checkpoint_dir(run_dir: Path) -> Path:
     return Path(run_dir).resolve() / CHECKPOINTS
 
 
-def eval_path_of(run_dir: Path, step: int) -> Path:
-    """Where `mjxmimic eval` records its evaluation of checkpoint `step`."""
-    return Path(run_dir) / f"eval_{step}.json"
+def eval_path_of(run_dir: Path, step: int, grid: float | None = None) -> Path:
+    """Where `mjxmimic eval` records its evaluation of checkpoint `step` (`--grid`'s apart)."""
+    return Path(run_dir) / (f"eval_{step}.json" if grid is None else f"eval_{step}_grid_{grid:g}.json")
 
 
 def best_dir(run_dir: Path) -> Path:

@@ -69,3 +69,18 @@ def summarize(acc: dict[str, Any], horizon: Any, control_dt: float) -> dict[str,
         "mean_horizon_steps": float(horizon.mean()),
         "episodes": int(per_episode.size),
     }
+
+
+def fall_windows(starts: list[float], fell: list[bool]) -> list[list[float]]:
+    """[first, last, count] of each run of start times, in clip-time order, that all fell: where in
+    a clip a policy cannot be started (a take-off no policy can complete, say), apart from the
+    evaluation's draw."""
+    windows: list[list[float]] = []
+    previous_fell = False
+    for t, f in sorted(zip(starts, fell)):
+        if f and previous_fell:
+            windows[-1][1:] = [t, windows[-1][2] + 1]
+        elif f:
+            windows.append([t, t, 1])
+        previous_fell = f
+    return windows
