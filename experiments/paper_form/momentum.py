@@ -14,16 +14,13 @@ import mujoco
 import numpy as np
 from terms import policy_env
 
-from mjxmimic.core.kinematics import ROOT_BODY
+from mjxmimic.motion.flight import whole_body_motion
 
 
 def body_momentum(model: mujoco.MjModel, scratch: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> dict:
-    scratch.qpos[:], scratch.qvel[:] = qpos, qvel
-    mujoco.mj_forward(model, scratch)
-    mujoco.mj_subtreeVel(model, scratch)
-    return {"com_z": round(float(scratch.subtree_com[ROOT_BODY][2]), 3),
-            "com_vz": round(float(scratch.subtree_linvel[ROOT_BODY][2]), 2),
-            "ang_momentum": [round(float(x), 1) for x in scratch.subtree_angmom[ROOT_BODY]]}
+    com, velocity, momentum = whole_body_motion(model, scratch, qpos, qvel)
+    return {"com_z": round(float(com[2]), 3), "com_vz": round(float(velocity[2]), 2),
+            "ang_momentum": [round(float(x), 1) for x in momentum]}
 
 
 def main() -> None:

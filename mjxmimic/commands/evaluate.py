@@ -53,6 +53,12 @@ PAPER_PUSH_N = {"walk": (240, 300), "run": (720, 300), "backflip": (440, 100), "
                 "cartwheel": (200, 470)}
 
 
+def fall_windows_text(windows: list[list[float]]) -> str:
+    """'0.590 .. 0.660 s (8), 1.200 s' from mjxmimic.task.nr.fall_windows ('-' for none)."""
+    return ", ".join(f"{a:.3f} s" if n == 1 else f"{a:.3f} .. {b:.3f} s ({n:g})" for a, b, n in windows) or "-"
+
+
+# (result key, label, format string or function)
 _ROWS = [
     ("nr", "NR, the run's reward form (released: five terms)", "{:.4f}"),
     ("nr_paper", "NR, the paper's four-term reward", "{:.4f}"),
@@ -61,7 +67,7 @@ _ROWS = [
     ("task_return", "task return (mean r_task per step)", "{:.4f}"),
     ("speed_ratio", "heading: speed along the goal / commanded", "{:.3f}"),
     ("fall_rate", "fall rate", "{:.3f}"),
-    ("fall_windows", "fell from (start times)", "{}"),
+    ("fall_windows", "fell from (start times)", fall_windows_text),
     ("survival_s", "mean survival (s)", "{:.2f}"),
     ("pose_error_rad", "pose error (rad)", "{:.4f}"),
     ("end_effector_error_m", "end-effector error (m)", "{:.4f}"),
@@ -70,11 +76,6 @@ _ROWS = [
     ("train_seconds", "training wall-clock (s)", "{:.0f}"),
     ("time_to_skill_s", "time to skill (s)", "{:.0f}"),
 ]
-
-
-def fall_windows_text(windows: list[list[float]]) -> str:
-    """'0.590 .. 0.660 s (8), 1.200 s' from mjxmimic.task.nr.fall_windows."""
-    return ", ".join(f"{a:.3f} s" if n == 1 else f"{a:.3f} .. {b:.3f} s ({n:g})" for a, b, n in windows)
 
 
 def _run_push(args: argparse.Namespace, policy_file: bool) -> int:
@@ -153,9 +154,6 @@ def run(args: argparse.Namespace) -> int:
     print(title, file=sys.stdout)
     for key, label, fmt in _ROWS:
         if key in result:
-            if key == "fall_windows":
-                value = fall_windows_text(result[key]) or "-"
-            else:
-                value = fmt.format(result[key])
+            value = fmt(result[key]) if callable(fmt) else fmt.format(result[key])
             print(f"  {label:<{width}}  {value}")
     return 0

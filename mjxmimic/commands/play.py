@@ -116,9 +116,9 @@ def _start_times(env, manifest: dict, episodes: int | None, seed: int | None, cl
 
 def _grid(env, step: float, clip: int = 0) -> tuple[list[float], str]:
     """(start times, label): one every `step` seconds over the interval the evaluation draws from."""
-    import numpy as np
+    from mjxmimic.task.nr import grid_starts
 
-    return np.arange(0.0, float(env.eval_start_limits[clip]), step).tolist(), f"a grid over the clip, every {step:g} s"
+    return grid_starts(env.eval_start_limits[clip], step).tolist(), f"a grid over the clip, every {step:g} s"
 
 
 class _RealTime:
@@ -382,7 +382,7 @@ def run(args: argparse.Namespace) -> int:
          else f"{mjx_nr:.4f}  ({out['mjx_episodes']} episodes)"),
         ("ratio CPU / MJX", "n/a" if out["ratio"] is None else f"{out['ratio']:.3f}"),
         ("fall rate", f"{out['fall_rate']:.3f}"),
-        ("fell from", fall_windows_text(out["fall_windows"]) or "-"),
+        ("fell from", fall_windows_text(out["fall_windows"])),
         ("mean survival (s)", f"{out['survival_s']:.2f}"),
         ("pose error (rad)", f"{out['pose_error_rad']:.4f}"),
         ("end-effector error (m)", f"{out['end_effector_error_m']:.4f}"),

@@ -51,17 +51,22 @@ class Flight:
         return out | {"ballistic": self.ballistic}
 
 
+def whole_body_motion(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray,
+                      qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre of mass, its velocity and the angular momentum about it (world axes) of one state,
+    computed in `data` (scratch)."""
+    data.qpos[:], data.qvel[:] = qpos, qvel
+    mujoco.mj_forward(model, data)
+    mujoco.mj_subtreeVel(model, data)
+    return (data.subtree_com[ROOT_BODY].copy(), data.subtree_linvel[ROOT_BODY].copy(),
+            data.subtree_angmom[ROOT_BODY].copy())
+
+
 def _centre_of_mass_and_momentum(character: Character, qpos: np.ndarray,
                                  qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    model = character.model
-    data = mujoco.MjData(model)
-    com, momentum = np.zeros((len(qpos), 3)), np.zeros((len(qpos), 3))
-    for f in range(len(qpos)):
-        data.qpos[:], data.qvel[:] = qpos[f], qvel[f]
-        mujoco.mj_forward(model, data)
-        mujoco.mj_subtreeVel(model, data)
-        com[f], momentum[f] = data.subtree_com[ROOT_BODY], data.subtree_angmom[ROOT_BODY]
-    return com, momentum
+    data = mujoco.MjData(character.model)
+    motion = [whole_body_motion(character.model, data, q, v) for q, v in zip(qpos, qvel)]
+    return np.array([com for com, _, _ in motion]), np.array([momentum for _, _, momentum in motion])
 
 
 def _stretches(airborne: np.ndarray) -> list[tuple[int, int]]:

@@ -152,7 +152,7 @@ def evaluate(env, policy_fn: Callable, config: Config, seed: int = 0, *, episode
         if grid is None:
             acc = drawn(key, clip)
         else:
-            t0 = jnp.asarray(np.arange(0.0, float(env.eval_start_limits[int(clip)]), grid), jnp.float32)
+            t0 = jnp.asarray(nr_rule.grid_starts(env.eval_start_limits[int(clip)], grid), jnp.float32)
             acc = jax.jit(lambda k: rollout(env, policy_fn, k, len(t0), clip, t0))(key)
         acc = jax.device_get(acc)
         out = summarize(acc, env.control_dt, task, config.terrain.length_m)

@@ -71,6 +71,12 @@ def summarize(acc: dict[str, Any], horizon: Any, control_dt: float) -> dict[str,
     }
 
 
+def grid_starts(limit: Any, step: float) -> np.ndarray:
+    """Start times every `step` seconds over [0, limit), the interval the evaluation draws from:
+    `--grid`'s, on MJX and on MuJoCo C alike."""
+    return np.arange(0.0, float(limit), step)
+
+
 def fall_windows(starts: list[float], fell: list[bool]) -> list[list[float]]:
     """[first, last, count] of each run of start times, in clip-time order, that all fell: where in
     a clip a policy cannot be started (a take-off no policy can complete, say), apart from the
